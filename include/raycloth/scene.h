@@ -1,0 +1,114 @@
+// The scene description: plain "def" structs with defaults, filled from a JSON scene file
+// (docs/scenes.md) or built in code. Nothing here simulates; see simulator.h.
+#pragma once
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace raycloth {
+
+using Float3 = std::array<float, 3>;
+
+struct TimeDef {
+  double dt = 4e-4;        // seconds per step
+  double duration = 3.0;   // simulated seconds
+  double fps = 30.0;       // output frames per simulated second
+};
+
+struct CollisionDef {
+  float tolerance = 0.005f;  // ray length of the paper's collision rays, metres
+  float thickness = 0.002f;  // distance kept from any surface, metres
+  float friction = 0.4f;     // Coulomb coefficient
+  bool cloth_cloth = true;   // cast against the cloth itself too
+};
+
+struct MaterialDef {
+  std::string name;
+  float density = 0.2f;      // kg / m^2
+  float stretch = 200.0f;    // N/m, stiffness of stretch springs
+  float shear = 40.0f;       // N/m
+  float bend = 4.0f;         // N/m
+  float damping = 1.0f;      // 1/s: viscous force -damping * m * v
+  float spring_damping = 0.0f;  // N s/m along each spring (0 = the paper's model)
+};
+
+struct TransformDef {
+  Float3 position{0, 0, 0};
+  Float3 rotation{0, 0, 0};  // degrees, applied X then Y then Z
+  Float3 scale{1, 1, 1};
+};
+
+// A rectangular l x n grid of mass points. Local layout: u along width (local x),
+// v along height (local z); the panel lies in its local y = 0 plane, normal +y.
+struct PanelDef {
+  std::string name;
+  std::string material;
+  float width = 1.0f, height = 1.0f;     // metres
+  int resolution_u = 2, resolution_v = 2;  // vertices along u and v
+  TransformDef transform;
+};
+
+// Panel edges: left (u = 0), right (u = max), bottom (v = 0), top (v = max).
+struct EdgeRef {
+  std::string panel;
+  std::string edge;
+};
+
+struct SeamDef {
+  EdgeRef a, b;
+  bool reverse = false;     // pair a's first vertex with b's last
+  float stiffness = 200.0f; // N/m, seam springs have rest length 0
+};
+
+// Pins hold vertices in place: a corner ("bottom_left", ...), a whole edge, or an index range
+// [first, last] of the panel's vertices (index = v * resolution_u + u).
+struct PinDef {
+  std::string panel;
+  std::string corner;
+  std::string edge;
+  std::optional<std::array<int, 2>> range;
+};
+
+enum class ObstacleType { UvSphere, Box, Plane, Mesh };
+
+struct MotionDef {
+  Float3 velocity{0, 0, 0};          // m/s
+  Float3 angular_velocity{0, 0, 0};  // degrees/s about the obstacle's position
+  double start = 0.0;                // simulated seconds before the motion starts
+};
+
+struct ObstacleDef {
+  std::string name;
+  ObstacleType type = ObstacleType::UvSphere;
+  float radius = 0.5f;          // uv_sphere
+  int slices = 24, stacks = 25; // uv_sphere
+  Float3 size{1, 1, 1};         // box: full extents; plane: size[0] x size[2]
+  std::string file;             // mesh: OBJ path (resolved against the scene file's folder)
+  TransformDef transform;
+  std::optional<MotionDef> motion;
+};
+
+struct SceneDef {
+  std::string name = "scene";
+  std::string source;  // file it came from ("" for built-in)
+  TimeDef time;
+  Float3 gravity{0, -9.81f, 0};
+  CollisionDef collision;
+  std::vector<MaterialDef> materials;
+  std::vector<PanelDef> panels;
+  std::vector<SeamDef> seams;
+  std::vector<PinDef> pins;
+  std::vector<ObstacleDef> obstacles;
+};
+
+// Parses a scene file; throws InputError naming the file, the JSON path and the reason.
+SceneDef load_scene_file(const std::string& path);
+// Parses scene text; `origin` names it in errors and resolves relative mesh paths.
+SceneDef parse_scene(const std::string& text, const std::string& origin);
+// The paper's experiment (scenes/seed_drape.json, compiled in).
+SceneDef default_scene();
+// Checks cross-references and ranges; throws InputError. parse_scene calls it.
+void validate_scene(const SceneDef& scene);
+
+}  // namespace raycloth

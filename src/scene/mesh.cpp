@@ -1,0 +1,91 @@
+#include "scene/mesh.h"
+
+#include <tiny_obj_loader.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "raycloth/error.h"
+
+namespace raycloth {
+
+TriMesh make_uv_sphere(float radius, int slices, int stacks) {
+  TriMesh m;
+  m.vertices.push_back(make_vec3(0, radius, 0));  // north pole
+  for (int s = 1; s < stacks; ++s) {
+    const double theta = M_PI * s / stacks;
+    for (int k = 0; k < slices; ++k) {
+      const double phi = 2.0 * M_PI * k / slices;
+      m.vertices.push_back(make_vec3(float(radius * std::sin(theta) * std::cos(phi)),
+                                     float(radius * std::cos(theta)),
+                                     float(-radius * std::sin(theta) * std::sin(phi))));
+    }
+  }
+  m.vertices.push_back(make_vec3(0, -radius, 0));  // south pole
+  const uint32_t south = uint32_t(m.vertices.size() - 1);
+  auto ring = [&](int s, int k) { return uint32_t(1 + (s - 1) * slices + (k % slices)); };
+  auto tri = [&](uint32_t a, uint32_t b, uint32_t c) { m.indices.insert(m.indices.end(), {a, b, c}); };
+  for (int k = 0; k < slices; ++k) tri(0, ring(1, k), ring(1, k + 1));
+  for (int s = 1; s < stacks - 1; ++s) {
+    for (int k = 0; k < slices; ++k) {
+      tri(ring(s, k), ring(s + 1, k), ring(s + 1, k + 1));
+      tri(ring(s, k), ring(s + 1, k + 1), ring(s, k + 1));
+    }
+  }
+  for (int k = 0; k < slices; ++k) tri(south, ring(stacks - 1, k + 1), ring(stacks - 1, k));
+  return m;
+}
+
+TriMesh make_box(Vec3 size) {
+  TriMesh m;
+  const Vec3 h = size * 0.5f;
+  for (int i = 0; i < 8; ++i)
+    m.vertices.push_back(make_vec3(i & 1 ? h.x : -h.x, i & 2 ? h.y : -h.y, i & 4 ? h.z : -h.z));
+  // Faces as quads (a, b, c, d) counter-clockwise seen from outside.
+  const uint32_t q[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4},
+                            {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+  for (auto& f : q) m.indices.insert(m.indices.end(), {f[0], f[1], f[2], f[0], f[2], f[3]});
+  return m;
+}
+
+TriMesh make_plane(Vec3 size) {
+  TriMesh m;
+  const float hx = size.x * 0.5f, hz = size.z * 0.5f;
+  m.vertices = {make_vec3(-hx, 0, -hz), make_vec3(hx, 0, -hz), make_vec3(hx, 0, hz), make_vec3(-hx, 0, hz)};
+  m.indices = {0, 2, 1, 0, 3, 2};
+  return m;
+}
+
+TriMesh load_obj_mesh(const std::string& path, const std::string& scene_file, const std::string& field) {
+  if (!std::filesystem::exists(path))
+    throw InputError(scene_file, field, "OBJ file '" + path + "' does not exist");
+  tinyobj::ObjReaderConfig config;
+  config.triangulate = true;
+  config.vertex_color = false;
+  tinyobj::ObjReader reader;
+  if (!reader.ParseFromFile(path, config)) {
+    std::string why = reader.Error();
+    while (!why.empty() && (why.back() == '\n' || why.back() == '\r')) why.pop_back();
+    throw InputError(scene_file, field, "OBJ file '" + path + "' is malformed: " + why);
+  }
+  const auto& attrib = reader.GetAttrib();
+  TriMesh m;
+  const size_t nv = attrib.vertices.size() / 3;
+  for (size_t i = 0; i < nv; ++i)
+    m.vertices.push_back(make_vec3(attrib.vertices[3 * i], attrib.vertices[3 * i + 1], attrib.vertices[3 * i + 2]));
+  for (const auto& shape : reader.GetShapes()) {
+    for (const auto& idx : shape.mesh.indices) {
+      if (idx.vertex_index < 0 || size_t(idx.vertex_index) >= nv)
+        throw InputError(scene_file, field, "OBJ file '" + path + "' is malformed: face refers to vertex " +
+                                                std::to_string(idx.vertex_index + 1) + " of " + std::to_string(nv));
+      m.indices.push_back(uint32_t(idx.vertex_index));
+    }
+  }
+  if (m.indices.empty())
+    throw InputError(scene_file, field, "OBJ file '" + path + "' is malformed: it has no faces");
+  for (const Vec3& v : m.vertices)
+    if (!is_finite(v)) throw InputError(scene_file, field, "OBJ file '" + path + "' is malformed: non-finite vertex");
+  return m;
+}
+
+}  // namespace raycloth

@@ -1,0 +1,26 @@
+// Triangle meshes for obstacles: generators (UV sphere, box, plane) and the OBJ reader.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "raycloth/vec3.h"
+
+namespace raycloth {
+
+struct TriMesh {
+  std::vector<Vec3> vertices;
+  std::vector<uint32_t> indices;  // 3 per triangle, counter-clockwise seen from outside
+  size_t num_triangles() const { return indices.size() / 3; }
+};
+
+// slices around the axis, stacks from pole to pole: 2 + slices * (stacks - 1) vertices and
+// 2 * slices * (stacks - 1) triangles (24 x 25 gives the paper's 578 and 1152).
+TriMesh make_uv_sphere(float radius, int slices, int stacks);
+TriMesh make_box(Vec3 size);
+// A square in the y = 0 plane, normal +y, size.x by size.z.
+TriMesh make_plane(Vec3 size);
+// Reads an OBJ (triangulated); throws InputError(file, field, reason) when missing or malformed.
+TriMesh load_obj_mesh(const std::string& path, const std::string& scene_file, const std::string& field);
+
+}  // namespace raycloth

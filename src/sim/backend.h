@@ -1,0 +1,41 @@
+// A backend runs whole steps over device-resident (CUDA) or host (CPU) state. Both call the same
+// per-vertex stages (sim/stages.h); they differ in the loop driver and the ray tracer.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "raycloth/simulator.h"
+#include "sim/model.h"
+
+namespace raycloth {
+
+struct StepResult {
+  uint64_t hits = 0;           // collision-buffer entries in the last step
+  int64_t bad_vertex = -1;     // first vertex that blew up, or -1
+  uint64_t bad_step = 0;       // step (counted from the start of the run) where it did
+};
+
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  virtual std::string name() const = 0;
+  // Runs n steps starting at step `first_step`; stops early on a blow-up (reported in the result).
+  virtual StepResult step(int n, uint64_t first_step, StageTimes& times) = 0;
+  virtual void download(std::vector<Vec3>& x, std::vector<Vec3>& v) = 0;
+};
+
+struct BackendInput {
+  const SceneDef* scene;
+  const ClothModel* model;
+  const ObstacleSet* obstacles;
+};
+
+std::unique_ptr<Backend> make_cpu_backend(const BackendInput& in);
+// Defined by the CUDA backend when it is built; otherwise throws SimulationError.
+std::unique_ptr<Backend> make_cuda_backend(const BackendInput& in);
+// True when the CUDA backend is built and a GPU is usable; otherwise `why` says what is missing.
+bool cuda_usable(std::string* why);
+
+}  // namespace raycloth

@@ -1,0 +1,82 @@
+// The cloth model: topology, rest lengths, masses and stiffness, built once from the scene and
+// never changed while stepping (the state, positions and velocities, lives apart).
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "raycloth/scene.h"
+#include "raycloth/vec3.h"
+#include "scene/mesh.h"
+
+namespace raycloth {
+
+enum class SpringType : uint8_t { Stretch = 0, Shear = 1, Bend = 2, Seam = 3 };
+
+struct Spring {
+  uint32_t a, b;
+  float rest, k, damping;
+  SpringType type;
+};
+
+struct Piece {
+  std::string name;
+  uint32_t first_vertex = 0, resolution_u = 0, resolution_v = 0;
+  uint32_t first_triangle = 0, num_triangles = 0;
+  uint32_t num_vertices() const { return resolution_u * resolution_v; }
+};
+
+// Plain pointers into a model's arrays: what the per-vertex functions read, on host or device.
+struct ModelView {
+  uint32_t num_vertices = 0;
+  const float* inv_mass = nullptr;   // 0 for pinned vertices
+  const float* damping = nullptr;    // 1/s, per vertex
+  const uint32_t* adj_offset = nullptr;  // CSR: springs of vertex i are [adj_offset[i], adj_offset[i+1])
+  const uint32_t* adj_other = nullptr;
+  const float* adj_rest = nullptr;
+  const float* adj_k = nullptr;
+  const float* adj_kd = nullptr;
+  const uint32_t* alias = nullptr;       // vertices joined by a seam share one alias
+  const uint32_t* triangles = nullptr;   // 3 per cloth triangle
+  const uint32_t* tri_alias = nullptr;   // alias of each triangle corner, 3 per triangle
+};
+
+struct ClothModel {
+  std::vector<Piece> pieces;
+  std::vector<Vec3> initial_positions;
+  std::vector<float> mass, inv_mass, damping;
+  std::vector<Spring> springs;
+  std::array<size_t, 4> spring_counts{};  // by SpringType
+  std::vector<uint32_t> adj_offset, adj_other;
+  std::vector<float> adj_rest, adj_k, adj_kd;
+  std::vector<uint32_t> alias;
+  std::vector<uint32_t> triangles, tri_alias;
+
+  uint32_t num_vertices() const { return uint32_t(initial_positions.size()); }
+  uint32_t num_triangles() const { return uint32_t(triangles.size() / 3); }
+  ModelView view() const;
+  // Smallest free-vertex mass and largest spring stiffness: the paper's T0 = pi sqrt(m/K).
+  float min_mass() const;
+  float max_stiffness() const;
+  double natural_period() const;
+};
+
+// Obstacles merged into one world-space mesh; moving ones keep their local mesh and motion.
+struct ObstacleSet {
+  TriMesh world;                       // all obstacles, world space at t = 0
+  std::vector<std::string> names;
+  std::vector<uint32_t> first_vertex;  // per obstacle, into world.vertices
+  std::vector<uint32_t> first_triangle;
+  std::vector<TriMesh> local;          // per obstacle, before its transform
+  std::vector<ObstacleDef> defs;
+  bool any_moving = false;
+  // World-space vertices and per-vertex velocities at simulated time t.
+  void pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec3>& velocities) const;
+};
+
+// Builds the model; throws InputError for seams or pins that do not fit the panels.
+ClothModel build_cloth_model(const SceneDef& scene);
+ObstacleSet build_obstacles(const SceneDef& scene);
+
+}  // namespace raycloth

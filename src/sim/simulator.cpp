@@ -1,0 +1,94 @@
+#include "raycloth/simulator.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "raycloth/error.h"
+#include "sim/backend.h"
+#include "sim/model.h"
+
+namespace raycloth {
+
+double natural_period(const SceneDef& scene) { return build_cloth_model(scene).natural_period(); }
+
+Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(scene) {
+  validate_scene(scene_);
+  model_ = std::make_unique<ClothModel>(build_cloth_model(scene_));
+  obstacles_ = std::make_unique<ObstacleSet>(build_obstacles(scene_));
+
+  const double t0 = model_->natural_period();
+  if (scene_.time.dt >= t0) {
+    const std::string why = fmt::format(
+        "time step {:g} s is not below the natural period T0 = pi*sqrt(m/K) = {:g} s (lightest vertex m = {:g} kg, "
+        "stiffest spring K = {:g} N/m); lower dt below {:g} s",
+        scene_.time.dt, t0, model_->min_mass(), model_->max_stiffness(), t0);
+    if (!options.allow_unstable_dt) throw InputError(scene_.source, "/time/dt", why + " or allow it explicitly");
+    spdlog::warn("{} (allowed by request)", why);
+  }
+
+  const BackendInput in{&scene_, model_.get(), obstacles_.get()};
+  if (options.device == "cpu") {
+    backend_ = make_cpu_backend(in);
+  } else if (options.device == "cuda") {
+    backend_ = make_cuda_backend(in);
+  } else if (options.device == "auto") {
+    std::string why;
+    if (cuda_usable(&why)) {
+      backend_ = make_cuda_backend(in);
+    } else {
+      spdlog::warn("device auto: using the CPU ({})", why);
+      backend_ = make_cpu_backend(in);
+    }
+  } else {
+    throw InputError(scene_.source, "device", "unknown device '" + options.device + "' (expected cpu, cuda or auto)");
+  }
+  x_ = model_->initial_positions;
+  v_.assign(x_.size(), make_vec3(0, 0, 0));
+}
+
+Simulator::~Simulator() = default;
+
+std::string Simulator::device() const { return backend_->name(); }
+
+void Simulator::step(int n) {
+  if (n <= 0) return;
+  const StepResult r = backend_->step(n, steps_, times_);
+  synced_ = false;
+  last_hits_ = r.hits;
+  if (r.bad_vertex >= 0) {
+    steps_ = r.bad_step + 1;
+    const std::vector<Vec3>& x = positions();
+    const uint32_t vi = uint32_t(r.bad_vertex);
+    const Piece* piece = &model_->pieces.front();
+    for (const auto& p : model_->pieces)
+      if (vi >= p.first_vertex && vi < p.first_vertex + p.num_vertices()) piece = &p;
+    const uint32_t local = vi - piece->first_vertex;
+    throw SimulationError(fmt::format(
+        "the simulation blew up at step {} (t = {:g} s): vertex {} of panel '{}' (u {}, v {}) reached ({:g}, {:g}, "
+        "{:g}); lower time.dt or the stiffnesses",
+        r.bad_step, double(r.bad_step + 1) * scene_.time.dt, local, piece->name, local % piece->resolution_u,
+        local / piece->resolution_u, x[vi].x, x[vi].y, x[vi].z));
+  }
+  steps_ += uint64_t(n);
+}
+
+const std::vector<Vec3>& Simulator::positions() {
+  if (!synced_) {
+    backend_->download(x_, v_);
+    synced_ = true;
+  }
+  return x_;
+}
+
+const std::vector<Vec3>& Simulator::velocities() {
+  positions();
+  return v_;
+}
+
+std::vector<Vec3> Simulator::obstacle_vertices() const {
+  std::vector<Vec3> x, v;
+  obstacles_->pose_at(time(), x, v);
+  return x;
+}
+
+}  // namespace raycloth

@@ -1,0 +1,75 @@
+// The stages of one step as per-vertex functions over plain pointers. The CPU backend runs them
+// in oneTBB loops, the CUDA backend in kernels: one copy of the physics for both.
+//
+//   integrate      eq. (2)+(3): proposed v', x'
+//   (update)       backend: refit the cloth's acceleration structure at x
+//   velocity rays  the paper's ray per vertex along v'      -> cast -> hits
+//   respond 1      collision buffer from the hit; respond; contact rays for vertices still free
+//   (cast)         backend: contact rays                    -> hits
+//   respond 2      respond to contact-ray hits; remember contact normals; check for blow-up
+#pragma once
+#include <cstdint>
+
+#include "collide/rules.h"
+#include "sim/physics.h"
+
+namespace raycloth {
+
+struct StepView {
+  ModelView model;
+  CollisionParams coll;
+  CollisionGeometry geom;
+  Vec3 gravity;
+  float blowup_limit = 1e4f;  // |x| past this (metres) is a blow-up
+  const Vec3* x = nullptr;    // state at t
+  const Vec3* v = nullptr;
+  Vec3* x_next = nullptr;     // state at t + dt
+  Vec3* v_next = nullptr;
+  Ray* rays = nullptr;
+  RawHit* hits = nullptr;
+  Contact* contacts = nullptr;     // the collision buffer, one entry per vertex
+  Vec3* contact_normal = nullptr;  // last step's acting contact normal (0 = none), updated in place
+};
+
+RC_HD void stage_integrate(const StepView& s, uint32_t i) {
+  integrate_vertex(s.model, s.x, s.v, i, s.gravity, s.coll.dt, s.v_next[i], s.x_next[i]);
+}
+
+RC_HD void stage_velocity_ray(const StepView& s, uint32_t i) {
+  s.contacts[i] = Contact();
+  s.rays[i] = s.model.inv_mass[i] == 0.0f ? Ray() : velocity_ray(s.x[i], s.x_next[i], s.model.alias[i], s.coll);
+  s.rays[i].vertex = s.model.alias[i];
+}
+
+// Responds to the velocity ray's hit. A vertex it did not stop casts a contact ray next, along
+// the normal it rested on last step.
+RC_HD void stage_respond_velocity(const StepView& s, uint32_t i) {
+  const Ray r = s.rays[i];
+  const Contact c = make_contact(r, s.hits[i], s.geom);
+  s.contacts[i] = c;
+  const Vec3 last = s.contact_normal[i];
+  s.contact_normal[i] = make_vec3(0, 0, 0);
+  Ray next;
+  next.vertex = r.vertex;
+  if (r.tmax > 0.0f && respond(r, c, s.coll, s.v_next[i], s.x_next[i])) {
+    s.contact_normal[i] = c.normal;
+  } else if (s.model.inv_mass[i] != 0.0f) {
+    next = contact_ray(s.x[i], last, r.vertex, s.coll);
+  }
+  s.rays[i] = next;
+}
+
+// Responds to the contact ray's hit, then checks the new state. Returns false on a blow-up.
+RC_HD bool stage_respond_contact(const StepView& s, uint32_t i) {
+  const Ray r = s.rays[i];
+  if (r.tmax > 0.0f && s.hits[i].kind != kHitNone) {
+    const Contact c = make_contact(r, s.hits[i], s.geom);
+    if (s.contacts[i].w < 0.0f) s.contacts[i] = c;
+    if (respond(r, c, s.coll, s.v_next[i], s.x_next[i])) s.contact_normal[i] = c.normal;
+  }
+  const Vec3 xn = s.x_next[i];
+  return is_finite(xn) && is_finite(s.v_next[i]) && fabsf(xn.x) < s.blowup_limit && fabsf(xn.y) < s.blowup_limit &&
+         fabsf(xn.z) < s.blowup_limit;
+}
+
+}  // namespace raycloth
