@@ -1,0 +1,528 @@
+// Scene files: JSON (comments allowed) into SceneDef, and the checks every scene goes through.
+// Parsing checks shapes and types and rejects unknown fields; validate_scene checks values and
+// cross references, so that scenes built in code get the same checks as scenes read from files.
+// Every error is an InputError naming the file, the JSON pointer of the field and the reason
+// (docs/scenes.md lists the schema).
+#include <nlohmann/json.hpp>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <sstream>
+#include <string_view>
+
+#include "raycloth/error.h"
+#include "raycloth/scene.h"
+
+namespace raycloth {
+
+namespace {
+
+using json = nlohmann::json;
+
+// Shortest form of a number that reads back the same in a message: 0.75, -1, 1e+39.
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+template <class T, size_t N>
+std::string num_list(const std::array<T, N>& a) {
+  std::string s = "[";
+  for (size_t i = 0; i < N; ++i) s += (i ? ", " : "") + num(double(a[i]));
+  return s + "]";
+}
+
+// A key as a JSON pointer token (RFC 6901): '~' -> "~0", '/' -> "~1".
+std::string pointer_token(std::string_view key) {
+  std::string s;
+  for (char c : key) {
+    if (c == '~') s += "~0";
+    else if (c == '/') s += "~1";
+    else s += c;
+  }
+  return s;
+}
+
+constexpr std::string_view kEdges[] = {"left", "right", "bottom", "top"};
+constexpr std::string_view kCorners[] = {"bottom_left", "bottom_right", "top_left", "top_right"};
+
+bool is_edge(const std::string& e) {
+  for (auto k : kEdges)
+    if (e == k) return true;
+  return false;
+}
+
+bool is_corner(const std::string& c) {
+  for (auto k : kCorners)
+    if (c == k) return true;
+  return false;
+}
+
+// Vertices along an edge: left/right run along v, bottom/top along u.
+int edge_vertex_count(const PanelDef& p, const std::string& edge) {
+  return edge == "left" || edge == "right" ? p.resolution_v : p.resolution_u;
+}
+
+// Reads JSON values into defs; `file` names the scene in errors, `dir` resolves mesh paths.
+class Reader {
+ public:
+  Reader(std::string file, std::filesystem::path dir) : file_(std::move(file)), dir_(std::move(dir)) {}
+
+  SceneDef scene(const json& j) {
+    SceneDef s;
+    s.source = file_;
+    object(j, "", {"name", "time", "gravity", "collision", "materials", "panels", "seams", "pins", "obstacles"});
+    optional(j, "", "name", [&](const json& v, const std::string& p) { s.name = string(v, p); });
+    optional(j, "", "time", [&](const json& v, const std::string& p) { s.time = time(v, p); });
+    optional(j, "", "gravity", [&](const json& v, const std::string& p) { s.gravity = float3(v, p); });
+    optional(j, "", "collision", [&](const json& v, const std::string& p) { s.collision = collision(v, p); });
+    list(j, "", "materials", false, [&](const json& v, const std::string& p, size_t) { s.materials.push_back(material(v, p)); });
+    list(j, "", "panels", true, [&](const json& v, const std::string& p, size_t) { s.panels.push_back(panel(v, p)); });
+    list(j, "", "seams", false, [&](const json& v, const std::string& p, size_t) { s.seams.push_back(seam(v, p)); });
+    list(j, "", "pins", false, [&](const json& v, const std::string& p, size_t) { s.pins.push_back(pin(v, p)); });
+    list(j, "", "obstacles", false,
+         [&](const json& v, const std::string& p, size_t i) { s.obstacles.push_back(obstacle(v, p, i)); });
+    return s;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& field, const std::string& reason) const {
+    throw InputError(file_, field, reason);
+  }
+
+  // An object whose keys must all be in `allowed`: a typo is an error, not a silent default.
+  void object(const json& j, const std::string& ptr, std::initializer_list<std::string_view> allowed) const {
+    if (!j.is_object()) fail(ptr, std::string("expected an object, got ") + j.type_name());
+    for (const auto& [key, value] : j.items()) {
+      bool known = false;
+      for (auto a : allowed) known = known || key == a;
+      if (!known) fail(ptr + "/" + pointer_token(key), "unknown field '" + key + "'");
+    }
+  }
+
+  template <class F>
+  void optional(const json& obj, const std::string& ptr, const char* key, F&& read) const {
+    const auto it = obj.find(key);
+    if (it != obj.end()) read(*it, ptr + "/" + key);
+  }
+
+  template <class F>
+  void required(const json& obj, const std::string& ptr, const char* key, F&& read) const {
+    const auto it = obj.find(key);
+    if (it == obj.end()) fail(ptr + "/" + key, "missing required field");
+    read(*it, ptr + "/" + key);
+  }
+
+  // An array of objects under `key`, each read by `read(value, pointer, index)`.
+  template <class F>
+  void list(const json& obj, const std::string& ptr, const char* key, bool need_one, F&& read) const {
+    const std::string p = ptr + "/" + key;
+    const auto it = obj.find(key);
+    if (it == obj.end()) {
+      if (need_one) fail(p, "missing required field");
+      return;
+    }
+    if (!it->is_array()) fail(p, std::string("expected an array, got ") + it->type_name());
+    if (need_one && it->empty()) fail(p, "needs at least one entry");
+    for (size_t i = 0; i < it->size(); ++i) read((*it)[i], p + "/" + std::to_string(i), i);
+  }
+
+  double number(const json& j, const std::string& ptr) const {
+    if (!j.is_number()) fail(ptr, std::string("expected a number, got ") + j.type_name());
+    return j.get<double>();
+  }
+
+  float number_f(const json& j, const std::string& ptr) const {
+    const double v = number(j, ptr);
+    if (std::abs(v) > double(std::numeric_limits<float>::max())) fail(ptr, "is out of range (got " + num(v) + ")");
+    return float(v);
+  }
+
+  int integer(const json& j, const std::string& ptr) const {
+    if (!j.is_number()) fail(ptr, std::string("expected an integer, got ") + j.type_name());
+    const double v = j.get<double>();
+    if (v != std::floor(v)) fail(ptr, "expected an integer, got " + num(v));
+    if (v < double(std::numeric_limits<int>::min()) || v > double(std::numeric_limits<int>::max()))
+      fail(ptr, "is out of range (got " + num(v) + ")");
+    return int(v);
+  }
+
+  bool boolean(const json& j, const std::string& ptr) const {
+    if (!j.is_boolean()) fail(ptr, std::string("expected true or false, got ") + j.type_name());
+    return j.get<bool>();
+  }
+
+  std::string string(const json& j, const std::string& ptr) const {
+    if (!j.is_string()) fail(ptr, std::string("expected a string, got ") + j.type_name());
+    return j.get<std::string>();
+  }
+
+  // A fixed-length array, each element read by `read`.
+  template <class T, size_t N, class F>
+  std::array<T, N> fixed(const json& j, const std::string& ptr, const char* what, F&& read) const {
+    if (!j.is_array())
+      fail(ptr, "expected an array of " + std::to_string(N) + " " + what + ", got " + j.type_name());
+    if (j.size() != N)
+      fail(ptr, "expected " + std::to_string(N) + " " + what + ", got " + std::to_string(j.size()));
+    std::array<T, N> a{};
+    for (size_t i = 0; i < N; ++i) a[i] = read(j[i], ptr + "/" + std::to_string(i));
+    return a;
+  }
+
+  Float3 float3(const json& j, const std::string& ptr) const {
+    return fixed<float, 3>(j, ptr, "numbers", [&](const json& v, const std::string& p) { return number_f(v, p); });
+  }
+  std::array<float, 2> float2(const json& j, const std::string& ptr) const {
+    return fixed<float, 2>(j, ptr, "numbers", [&](const json& v, const std::string& p) { return number_f(v, p); });
+  }
+  std::array<int, 2> int2(const json& j, const std::string& ptr) const {
+    return fixed<int, 2>(j, ptr, "integers", [&](const json& v, const std::string& p) { return integer(v, p); });
+  }
+
+  TimeDef time(const json& j, const std::string& ptr) const {
+    TimeDef t;
+    object(j, ptr, {"dt", "duration", "fps"});
+    optional(j, ptr, "dt", [&](const json& v, const std::string& p) { t.dt = number(v, p); });
+    optional(j, ptr, "duration", [&](const json& v, const std::string& p) { t.duration = number(v, p); });
+    optional(j, ptr, "fps", [&](const json& v, const std::string& p) { t.fps = number(v, p); });
+    return t;
+  }
+
+  CollisionDef collision(const json& j, const std::string& ptr) const {
+    CollisionDef c;
+    object(j, ptr, {"tolerance", "thickness", "friction", "cloth_cloth"});
+    optional(j, ptr, "tolerance", [&](const json& v, const std::string& p) { c.tolerance = number_f(v, p); });
+    optional(j, ptr, "thickness", [&](const json& v, const std::string& p) { c.thickness = number_f(v, p); });
+    optional(j, ptr, "friction", [&](const json& v, const std::string& p) { c.friction = number_f(v, p); });
+    optional(j, ptr, "cloth_cloth", [&](const json& v, const std::string& p) { c.cloth_cloth = boolean(v, p); });
+    return c;
+  }
+
+  MaterialDef material(const json& j, const std::string& ptr) const {
+    MaterialDef m;
+    object(j, ptr, {"name", "density", "stretch", "shear", "bend", "damping", "spring_damping"});
+    required(j, ptr, "name", [&](const json& v, const std::string& p) { m.name = string(v, p); });
+    optional(j, ptr, "density", [&](const json& v, const std::string& p) { m.density = number_f(v, p); });
+    optional(j, ptr, "stretch", [&](const json& v, const std::string& p) { m.stretch = number_f(v, p); });
+    optional(j, ptr, "shear", [&](const json& v, const std::string& p) { m.shear = number_f(v, p); });
+    optional(j, ptr, "bend", [&](const json& v, const std::string& p) { m.bend = number_f(v, p); });
+    optional(j, ptr, "damping", [&](const json& v, const std::string& p) { m.damping = number_f(v, p); });
+    optional(j, ptr, "spring_damping",
+             [&](const json& v, const std::string& p) { m.spring_damping = number_f(v, p); });
+    return m;
+  }
+
+  void transform(const json& j, const std::string& ptr, TransformDef& t) const {
+    optional(j, ptr, "position", [&](const json& v, const std::string& p) { t.position = float3(v, p); });
+    optional(j, ptr, "rotation", [&](const json& v, const std::string& p) { t.rotation = float3(v, p); });
+    optional(j, ptr, "scale", [&](const json& v, const std::string& p) { t.scale = float3(v, p); });
+  }
+
+  PanelDef panel(const json& j, const std::string& ptr) const {
+    PanelDef pd;
+    object(j, ptr, {"name", "material", "size", "resolution", "position", "rotation", "scale"});
+    required(j, ptr, "name", [&](const json& v, const std::string& p) { pd.name = string(v, p); });
+    required(j, ptr, "material", [&](const json& v, const std::string& p) { pd.material = string(v, p); });
+    required(j, ptr, "size", [&](const json& v, const std::string& p) {
+      const auto s = float2(v, p);
+      pd.width = s[0];
+      pd.height = s[1];
+    });
+    required(j, ptr, "resolution", [&](const json& v, const std::string& p) {
+      const auto r = int2(v, p);
+      pd.resolution_u = r[0];
+      pd.resolution_v = r[1];
+    });
+    transform(j, ptr, pd.transform);
+    return pd;
+  }
+
+  EdgeRef edge_ref(const json& j, const std::string& ptr) const {
+    EdgeRef e;
+    object(j, ptr, {"panel", "edge"});
+    required(j, ptr, "panel", [&](const json& v, const std::string& p) { e.panel = string(v, p); });
+    required(j, ptr, "edge", [&](const json& v, const std::string& p) { e.edge = string(v, p); });
+    return e;
+  }
+
+  SeamDef seam(const json& j, const std::string& ptr) const {
+    SeamDef sd;
+    object(j, ptr, {"a", "b", "reverse", "stiffness"});
+    required(j, ptr, "a", [&](const json& v, const std::string& p) { sd.a = edge_ref(v, p); });
+    required(j, ptr, "b", [&](const json& v, const std::string& p) { sd.b = edge_ref(v, p); });
+    optional(j, ptr, "reverse", [&](const json& v, const std::string& p) { sd.reverse = boolean(v, p); });
+    optional(j, ptr, "stiffness", [&](const json& v, const std::string& p) { sd.stiffness = number_f(v, p); });
+    return sd;
+  }
+
+  PinDef pin(const json& j, const std::string& ptr) const {
+    PinDef pd;
+    object(j, ptr, {"panel", "corner", "edge", "range"});
+    required(j, ptr, "panel", [&](const json& v, const std::string& p) { pd.panel = string(v, p); });
+    // Presence decides the kind of pin, so that "corner": "" is reported as a bad corner name
+    // rather than as a missing one.
+    const int kinds = int(j.contains("corner")) + int(j.contains("edge")) + int(j.contains("range"));
+    if (kinds != 1) fail(ptr, "a pin needs exactly one of corner, edge or range");
+    optional(j, ptr, "corner", [&](const json& v, const std::string& p) {
+      pd.corner = string(v, p);
+      if (!is_corner(pd.corner)) fail(p, bad_corner(pd.corner));
+    });
+    optional(j, ptr, "edge", [&](const json& v, const std::string& p) {
+      pd.edge = string(v, p);
+      if (!is_edge(pd.edge)) fail(p, bad_edge(pd.edge));
+    });
+    optional(j, ptr, "range", [&](const json& v, const std::string& p) { pd.range = int2(v, p); });
+    return pd;
+  }
+
+  ObstacleType obstacle_type(const json& j, const std::string& ptr) const {
+    const std::string t = string(j, ptr);
+    if (t == "uv_sphere") return ObstacleType::UvSphere;
+    if (t == "box") return ObstacleType::Box;
+    if (t == "plane") return ObstacleType::Plane;
+    if (t == "mesh") return ObstacleType::Mesh;
+    fail(ptr, "unknown obstacle type '" + t + "' (expected uv_sphere, box, plane or mesh)");
+  }
+
+  MotionDef motion(const json& j, const std::string& ptr) const {
+    MotionDef m;
+    object(j, ptr, {"velocity", "angular_velocity", "start"});
+    optional(j, ptr, "velocity", [&](const json& v, const std::string& p) { m.velocity = float3(v, p); });
+    optional(j, ptr, "angular_velocity",
+             [&](const json& v, const std::string& p) { m.angular_velocity = float3(v, p); });
+    optional(j, ptr, "start", [&](const json& v, const std::string& p) { m.start = number(v, p); });
+    return m;
+  }
+
+  ObstacleDef obstacle(const json& j, const std::string& ptr, size_t index) const {
+    ObstacleDef od;
+    od.name = "obstacle" + std::to_string(index);
+    object(j, ptr, {"name", "type", "radius", "slices", "stacks", "size", "file", "position", "rotation", "scale",
+                    "motion"});
+    std::string type_name;
+    required(j, ptr, "type", [&](const json& v, const std::string& p) {
+      od.type = obstacle_type(v, p);
+      type_name = v.get<std::string>();
+    });
+    // Shape fields that the type does not use are errors too: "radius" on a box is a mistake.
+    auto only_for = [&](const char* key, std::initializer_list<ObstacleType> types) {
+      if (!j.contains(key)) return;
+      for (ObstacleType t : types)
+        if (od.type == t) return;
+      fail(ptr + "/" + key, std::string("field '") + key + "' does not apply to obstacle type '" + type_name + "'");
+    };
+    only_for("radius", {ObstacleType::UvSphere});
+    only_for("slices", {ObstacleType::UvSphere});
+    only_for("stacks", {ObstacleType::UvSphere});
+    only_for("size", {ObstacleType::Box, ObstacleType::Plane});
+    only_for("file", {ObstacleType::Mesh});
+    optional(j, ptr, "name", [&](const json& v, const std::string& p) { od.name = string(v, p); });
+    optional(j, ptr, "radius", [&](const json& v, const std::string& p) { od.radius = number_f(v, p); });
+    optional(j, ptr, "slices", [&](const json& v, const std::string& p) { od.slices = integer(v, p); });
+    optional(j, ptr, "stacks", [&](const json& v, const std::string& p) { od.stacks = integer(v, p); });
+    optional(j, ptr, "size", [&](const json& v, const std::string& p) { od.size = float3(v, p); });
+    if (od.type == ObstacleType::Mesh)
+      required(j, ptr, "file", [&](const json& v, const std::string& p) {
+        const std::filesystem::path f = string(v, p);
+        od.file = (f.is_absolute() || dir_.empty() ? f : dir_ / f).lexically_normal().string();
+      });
+    transform(j, ptr, od.transform);
+    optional(j, ptr, "motion", [&](const json& v, const std::string& p) { od.motion = motion(v, p); });
+    return od;
+  }
+
+ public:
+  static std::string bad_edge(const std::string& e) {
+    return "unknown edge '" + e + "' (expected left, right, bottom or top)";
+  }
+  static std::string bad_corner(const std::string& c) {
+    return "unknown corner '" + c + "' (expected bottom_left, bottom_right, top_left or top_right)";
+  }
+
+ private:
+  std::string file_;
+  std::filesystem::path dir_;
+};
+
+// "cannot open" reasons and the nlohmann parse error without its "[json.exception...] " tag.
+std::string parse_error_reason(const json::parse_error& e) {
+  std::string what = e.what();
+  if (!what.empty() && what[0] == '[') {
+    const auto close = what.find("] ");
+    if (close != std::string::npos) what.erase(0, close + 2);
+  }
+  return what;
+}
+
+}  // namespace
+
+SceneDef load_scene_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(path, "", std::string("cannot open scene file: ") + std::strerror(EISDIR));
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "", std::string("cannot open scene file: ") + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw InputError(path, "", std::string("cannot read scene file: ") + std::strerror(errno));
+  return parse_scene(text.str(), path);
+}
+
+SceneDef parse_scene(const std::string& text, const std::string& origin) {
+  json j;
+  try {
+    j = json::parse(text, nullptr, /*allow_exceptions=*/true, /*ignore_comments=*/true);
+  } catch (const json::parse_error& e) {
+    throw InputError(origin, "", parse_error_reason(e));
+  }
+  Reader reader(origin, std::filesystem::path(origin).parent_path());
+  SceneDef scene = reader.scene(j);
+  validate_scene(scene);
+  return scene;
+}
+
+void validate_scene(const SceneDef& s) {
+  auto fail = [&](const std::string& field, const std::string& reason) { throw InputError(s.source, field, reason); };
+  auto positive = [&](double v, const std::string& field) {
+    if (!(v > 0)) fail(field, "must be positive (got " + num(v) + ")");
+  };
+  auto non_negative = [&](double v, const std::string& field) {
+    if (!(v >= 0)) fail(field, "must not be negative (got " + num(v) + ")");
+  };
+  auto finite3 = [&](const Float3& v, const std::string& field) {
+    for (float x : v)
+      if (!std::isfinite(x)) fail(field, "must be finite (got " + num_list(v) + ")");
+  };
+  auto positive3 = [&](const Float3& v, const std::string& field) {
+    for (float x : v)
+      if (!(x > 0)) fail(field, "all must be positive (got " + num_list(v) + ")");
+  };
+  auto check_transform = [&](const TransformDef& t, const std::string& ptr) {
+    finite3(t.position, ptr + "/position");
+    finite3(t.rotation, ptr + "/rotation");
+    positive3(t.scale, ptr + "/scale");
+  };
+  auto idx = [](const char* list, size_t i) { return std::string("/") + list + "/" + std::to_string(i); };
+
+  positive(s.time.dt, "/time/dt");
+  positive(s.time.duration, "/time/duration");
+  positive(s.time.fps, "/time/fps");
+  finite3(s.gravity, "/gravity");
+  positive(s.collision.tolerance, "/collision/tolerance");
+  non_negative(s.collision.thickness, "/collision/thickness");
+  non_negative(s.collision.friction, "/collision/friction");
+
+  for (size_t i = 0; i < s.materials.size(); ++i) {
+    const MaterialDef& m = s.materials[i];
+    const std::string p = idx("materials", i);
+    if (m.name.empty()) fail(p + "/name", "must not be empty");
+    for (size_t k = 0; k < i; ++k)
+      if (s.materials[k].name == m.name)
+        fail(p + "/name", "duplicate material name '" + m.name + "' (also " + idx("materials", k) + ")");
+    positive(m.density, p + "/density");
+    positive(m.stretch, p + "/stretch");
+    non_negative(m.shear, p + "/shear");
+    non_negative(m.bend, p + "/bend");
+    non_negative(m.damping, p + "/damping");
+    non_negative(m.spring_damping, p + "/spring_damping");
+  }
+
+  if (s.panels.empty()) fail("/panels", "the scene needs at least one panel");
+  for (size_t i = 0; i < s.panels.size(); ++i) {
+    const PanelDef& pd = s.panels[i];
+    const std::string p = idx("panels", i);
+    if (pd.name.empty()) fail(p + "/name", "must not be empty");
+    for (size_t k = 0; k < i; ++k)
+      if (s.panels[k].name == pd.name)
+        fail(p + "/name", "duplicate panel name '" + pd.name + "' (also " + idx("panels", k) + ")");
+    bool known = false;
+    for (const auto& m : s.materials) known = known || m.name == pd.material;
+    if (!known) fail(p + "/material", "unknown material '" + pd.material + "'");
+    if (!(pd.width > 0 && pd.height > 0))
+      fail(p + "/size", "both must be positive (got " + num_list(std::array<float, 2>{pd.width, pd.height}) + ")");
+    const std::array<int, 2> res{pd.resolution_u, pd.resolution_v};
+    if (res[0] < 2 || res[1] < 2) fail(p + "/resolution", "both must be at least 2 (got " + num_list(res) + ")");
+    // Vertex ids are 32-bit; far below that the run would not fit in memory anyway.
+    if (int64_t(res[0]) * res[1] > (int64_t(1) << 28))
+      fail(p + "/resolution", "too many vertices (got " + num_list(res) + ")");
+    check_transform(pd.transform, p);
+  }
+
+  auto find_panel = [&](const std::string& name, const std::string& field) -> const PanelDef& {
+    for (const auto& pd : s.panels)
+      if (pd.name == name) return pd;
+    fail(field, "unknown panel '" + name + "'");
+    return s.panels.front();  // not reached
+  };
+
+  for (size_t i = 0; i < s.seams.size(); ++i) {
+    const SeamDef& sd = s.seams[i];
+    const std::string p = idx("seams", i);
+    const PanelDef& pa = find_panel(sd.a.panel, p + "/a/panel");
+    if (!is_edge(sd.a.edge)) fail(p + "/a/edge", Reader::bad_edge(sd.a.edge));
+    const PanelDef& pb = find_panel(sd.b.panel, p + "/b/panel");
+    if (!is_edge(sd.b.edge)) fail(p + "/b/edge", Reader::bad_edge(sd.b.edge));
+    const int na = edge_vertex_count(pa, sd.a.edge), nb = edge_vertex_count(pb, sd.b.edge);
+    if (na != nb)
+      fail(p, "edge '" + sd.a.edge + "' of panel '" + sd.a.panel + "' has " + std::to_string(na) +
+                  " vertices but edge '" + sd.b.edge + "' of panel '" + sd.b.panel + "' has " + std::to_string(nb));
+    positive(sd.stiffness, p + "/stiffness");
+  }
+
+  for (size_t i = 0; i < s.pins.size(); ++i) {
+    const PinDef& pd = s.pins[i];
+    const std::string p = idx("pins", i);
+    const PanelDef& panel = find_panel(pd.panel, p + "/panel");
+    const int kinds = int(!pd.corner.empty()) + int(!pd.edge.empty()) + int(pd.range.has_value());
+    if (kinds != 1) fail(p, "a pin needs exactly one of corner, edge or range");
+    if (!pd.corner.empty() && !is_corner(pd.corner)) fail(p + "/corner", Reader::bad_corner(pd.corner));
+    if (!pd.edge.empty() && !is_edge(pd.edge)) fail(p + "/edge", Reader::bad_edge(pd.edge));
+    if (pd.range) {
+      const auto [first, last] = *pd.range;
+      const int64_t count = int64_t(panel.resolution_u) * panel.resolution_v;
+      if (first < 0 || last < first || last >= count)
+        fail(p + "/range", "range [" + std::to_string(first) + ", " + std::to_string(last) + "] is outside panel '" +
+                               panel.name + "' (vertices 0 to " + std::to_string(count - 1) + ")");
+    }
+  }
+
+  for (size_t i = 0; i < s.obstacles.size(); ++i) {
+    const ObstacleDef& od = s.obstacles[i];
+    const std::string p = idx("obstacles", i);
+    if (!od.name.empty())
+      for (size_t k = 0; k < i; ++k)
+        if (s.obstacles[k].name == od.name)
+          fail(p + "/name", "duplicate obstacle name '" + od.name + "' (also " + idx("obstacles", k) + ")");
+    switch (od.type) {
+      case ObstacleType::UvSphere:
+        positive(od.radius, p + "/radius");
+        if (od.slices < 3) fail(p + "/slices", "must be at least 3 (got " + std::to_string(od.slices) + ")");
+        if (od.stacks < 2) fail(p + "/stacks", "must be at least 2 (got " + std::to_string(od.stacks) + ")");
+        break;
+      case ObstacleType::Box: positive3(od.size, p + "/size"); break;
+      case ObstacleType::Plane:
+        if (!(od.size[0] > 0 && od.size[2] > 0))
+          fail(p + "/size", "x and z must be positive (got " + num_list(od.size) + ")");
+        break;
+      case ObstacleType::Mesh:
+        if (od.file.empty()) fail(p + "/file", "a mesh obstacle needs an OBJ file");
+        if (!std::filesystem::exists(od.file)) fail(p + "/file", "OBJ file '" + od.file + "' does not exist");
+        break;
+    }
+    check_transform(od.transform, p);
+    if (od.motion) {
+      finite3(od.motion->velocity, p + "/motion/velocity");
+      finite3(od.motion->angular_velocity, p + "/motion/angular_velocity");
+      non_negative(od.motion->start, p + "/motion/start");
+    }
+  }
+}
+
+}  // namespace raycloth
