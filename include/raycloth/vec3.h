@@ -31,6 +31,13 @@ RC_HD Vec3 normalize_or_zero(Vec3 a) {
 }
 RC_HD Vec3 vmin(Vec3 a, Vec3 b) { return make_vec3(fminf(a.x, b.x), fminf(a.y, b.y), fminf(a.z, b.z)); }
 RC_HD Vec3 vmax(Vec3 a, Vec3 b) { return make_vec3(fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)); }
-RC_HD bool is_finite(Vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
+RC_HD bool is_finite(float f) {
+#if defined(__CUDA_ARCH__)
+  return isfinite(f);
+#else
+  return std::isfinite(f);
+#endif
+}
+RC_HD bool is_finite(Vec3 a) { return is_finite(a.x) && is_finite(a.y) && is_finite(a.z); }
 
 }  // namespace raycloth

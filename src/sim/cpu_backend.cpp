@@ -46,7 +46,7 @@ class CpuBackend final : public Backend {
     obstacles_.pose_at(0.0, obstacle_x_, obstacle_v_);
     collider_->set_obstacles(obstacle_x_.data(), obstacle_x_.size(), obstacles_.world.indices.data(),
                              obstacles_.world.num_triangles(), obstacles_.any_moving);
-    collider_->set_cloth(n, model_.triangles.data(), model_.tri_alias.data(), model_.num_triangles(),
+    collider_->set_cloth(n, model_.collision_triangles.data(), model_.tri_alias.data(), model_.num_collision_triangles(),
                          scene_.collision.cloth_cloth);
   }
 
@@ -126,7 +126,7 @@ class CpuBackend final : public Backend {
     s.geom.obstacle_indices = obstacles_.world.indices.data();
     s.geom.cloth_positions = x_.data();
     s.geom.cloth_velocities = v_.data();
-    s.geom.cloth_indices = model_.triangles.data();
+    s.geom.cloth_indices = model_.collision_triangles.data();
     s.x = x_.data();
     s.v = v_.data();
     s.x_next = x_next_.data();

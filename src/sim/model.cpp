@@ -59,7 +59,7 @@ ModelView ClothModel::view() const {
   v.adj_k = adj_k.data();
   v.adj_kd = adj_kd.data();
   v.alias = alias.data();
-  v.triangles = triangles.data();
+  v.triangles = collision_triangles.data();
   v.tri_alias = tri_alias.data();
   return v;
 }
@@ -80,6 +80,36 @@ float ClothModel::max_stiffness() const {
 double ClothModel::natural_period() const {
   const double k = max_stiffness();
   return k > 0 ? M_PI * std::sqrt(double(min_mass()) / k) : INFINITY;
+}
+
+// Per-vertex adjacency (CSR) so that forces are gathered, never scattered.
+void build_adjacency(ClothModel& model) {
+  model.spring_counts = {};
+  const uint32_t n = model.num_vertices();
+  std::vector<uint32_t> degree(n, 0);
+  for (const auto& sp : model.springs) {
+    ++degree[sp.a];
+    ++degree[sp.b];
+    ++model.spring_counts[size_t(sp.type)];
+  }
+  model.adj_offset.assign(n + 1, 0);
+  for (uint32_t i = 0; i < n; ++i) model.adj_offset[i + 1] = model.adj_offset[i] + degree[i];
+  const size_t e = model.adj_offset[n];
+  model.adj_other.resize(e);
+  model.adj_rest.resize(e);
+  model.adj_k.resize(e);
+  model.adj_kd.resize(e);
+  std::vector<uint32_t> fill(model.adj_offset.begin(), model.adj_offset.end() - 1);
+  for (const auto& sp : model.springs) {
+    for (int side = 0; side < 2; ++side) {
+      const uint32_t self = side ? sp.b : sp.a, other = side ? sp.a : sp.b;
+      const uint32_t slot = fill[self]++;
+      model.adj_other[slot] = other;
+      model.adj_rest[slot] = sp.rest;
+      model.adj_k[slot] = sp.k;
+      model.adj_kd[slot] = sp.damping;
+    }
+  }
 }
 
 ClothModel build_cloth_model(const SceneDef& s) {
@@ -135,6 +165,7 @@ ClothModel build_cloth_model(const SceneDef& s) {
   }
 
   // Seams: matched boundary vertices pulled together by zero-length springs.
+  m.collision_triangles = m.triangles;
   std::vector<uint32_t> parent(m.num_vertices());
   std::iota(parent.begin(), parent.end(), 0u);
   for (size_t si = 0; si < s.seams.size(); ++si) {
@@ -150,6 +181,8 @@ ClothModel build_cloth_model(const SceneDef& s) {
                            " vertices but edge '" + sd.b.edge + "' of panel '" + sd.b.panel + "' has " +
                            std::to_string(eb.size()));
     if (sd.reverse) std::reverse(eb.begin(), eb.end());
+    for (size_t k = 0; k + 1 < ea.size(); ++k)
+      m.collision_triangles.insert(m.collision_triangles.end(), {ea[k], eb[k], eb[k + 1], ea[k], eb[k + 1], ea[k + 1]});
     for (size_t k = 0; k < ea.size(); ++k) {
       if (ea[k] == eb[k]) continue;
       m.springs.push_back({ea[k], eb[k], 0.0f, sd.stiffness, 0.0f, SpringType::Seam});
@@ -158,8 +191,8 @@ ClothModel build_cloth_model(const SceneDef& s) {
   }
   m.alias.resize(m.num_vertices());
   for (uint32_t i = 0; i < m.num_vertices(); ++i) m.alias[i] = find_root(parent, i);
-  m.tri_alias.resize(m.triangles.size());
-  for (size_t i = 0; i < m.triangles.size(); ++i) m.tri_alias[i] = m.alias[m.triangles[i]];
+  m.tri_alias.resize(m.collision_triangles.size());
+  for (size_t i = 0; i < m.collision_triangles.size(); ++i) m.tri_alias[i] = m.alias[m.collision_triangles[i]];
 
   // Pins.
   for (size_t pi = 0; pi < s.pins.size(); ++pi) {
@@ -194,32 +227,7 @@ ClothModel build_cloth_model(const SceneDef& s) {
     for (uint32_t id : ids) m.inv_mass[id] = 0.0f;
   }
 
-  // Per-vertex adjacency (CSR) so that forces are gathered, never scattered.
-  const uint32_t n = m.num_vertices();
-  std::vector<uint32_t> degree(n, 0);
-  for (const auto& sp : m.springs) {
-    ++degree[sp.a];
-    ++degree[sp.b];
-    ++m.spring_counts[size_t(sp.type)];
-  }
-  m.adj_offset.assign(n + 1, 0);
-  for (uint32_t i = 0; i < n; ++i) m.adj_offset[i + 1] = m.adj_offset[i] + degree[i];
-  const size_t e = m.adj_offset[n];
-  m.adj_other.resize(e);
-  m.adj_rest.resize(e);
-  m.adj_k.resize(e);
-  m.adj_kd.resize(e);
-  std::vector<uint32_t> fill(m.adj_offset.begin(), m.adj_offset.end() - 1);
-  for (const auto& sp : m.springs) {
-    for (int side = 0; side < 2; ++side) {
-      const uint32_t self = side ? sp.b : sp.a, other = side ? sp.a : sp.b;
-      const uint32_t slot = fill[self]++;
-      m.adj_other[slot] = other;
-      m.adj_rest[slot] = sp.rest;
-      m.adj_k[slot] = sp.k;
-      m.adj_kd[slot] = sp.damping;
-    }
-  }
+  build_adjacency(m);
   return m;
 }
 

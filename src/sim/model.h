@@ -38,8 +38,8 @@ struct ModelView {
   const float* adj_k = nullptr;
   const float* adj_kd = nullptr;
   const uint32_t* alias = nullptr;       // vertices joined by a seam share one alias
-  const uint32_t* triangles = nullptr;   // 3 per cloth triangle
-  const uint32_t* tri_alias = nullptr;   // alias of each triangle corner, 3 per triangle
+  const uint32_t* triangles = nullptr;   // 3 per collision triangle (cloth, then seam strips)
+  const uint32_t* tri_alias = nullptr;   // alias of each collision-triangle corner
 };
 
 struct ClothModel {
@@ -51,10 +51,14 @@ struct ClothModel {
   std::vector<uint32_t> adj_offset, adj_other;
   std::vector<float> adj_rest, adj_k, adj_kd;
   std::vector<uint32_t> alias;
-  std::vector<uint32_t> triangles, tri_alias;
+  std::vector<uint32_t> triangles;            // the cloth surface, 3 per triangle, panel by panel
+  // What the rays see: the cloth triangles followed by thin strips across each seam, so that a
+  // vertex cannot slip through the slit between two seamed panels; and their corners' aliases.
+  std::vector<uint32_t> collision_triangles, tri_alias;
 
   uint32_t num_vertices() const { return uint32_t(initial_positions.size()); }
   uint32_t num_triangles() const { return uint32_t(triangles.size() / 3); }
+  uint32_t num_collision_triangles() const { return uint32_t(collision_triangles.size() / 3); }
   ModelView view() const;
   // Smallest free-vertex mass and largest spring stiffness: the paper's T0 = pi sqrt(m/K).
   float min_mass() const;
@@ -75,6 +79,8 @@ struct ObstacleSet {
   void pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec3>& velocities) const;
 };
 
+// Fills the per-vertex CSR adjacency and the spring counts from model.springs.
+void build_adjacency(ClothModel& model);
 // Builds the model; throws InputError for seams or pins that do not fit the panels.
 ClothModel build_cloth_model(const SceneDef& scene);
 ObstacleSet build_obstacles(const SceneDef& scene);

@@ -4,9 +4,10 @@
 //   integrate      eq. (2)+(3): proposed v', x'
 //   (update)       backend: refit the cloth's acceleration structure at x
 //   velocity rays  the paper's ray per vertex along v'      -> cast -> hits
-//   respond 1      collision buffer from the hit; respond; contact rays for vertices still free
-//   (cast)         backend: contact rays                    -> hits
-//   respond 2      respond to contact-ray hits; remember contact normals; check for blow-up
+//   respond 1      collision buffer from the hit; respond; second rays: along the corrected move
+//                  for vertices that responded, along the last contact normal for the others
+//   (cast)         backend: second rays                     -> hits
+//   respond 2      respond to second-ray hits; remember contact normals; check for blow-up
 #pragma once
 #include <cstdint>
 
@@ -41,8 +42,7 @@ RC_HD void stage_velocity_ray(const StepView& s, uint32_t i) {
   s.rays[i].vertex = s.model.alias[i];
 }
 
-// Responds to the velocity ray's hit. A vertex it did not stop casts a contact ray next, along
-// the normal it rested on last step.
+// Responds to the velocity ray's hit and prepares each vertex's second ray.
 RC_HD void stage_respond_velocity(const StepView& s, uint32_t i) {
   const Ray r = s.rays[i];
   const Contact c = make_contact(r, s.hits[i], s.geom);
@@ -53,13 +53,16 @@ RC_HD void stage_respond_velocity(const StepView& s, uint32_t i) {
   next.vertex = r.vertex;
   if (r.tmax > 0.0f && respond(r, c, s.coll, s.v_next[i], s.x_next[i])) {
     s.contact_normal[i] = c.normal;
+    // The response moved the vertex: that move must not carry it through another surface (a
+    // cloth layer lying on the obstacle it was pushed out of), so it is cast again.
+    next = velocity_ray(s.x[i], s.x_next[i], r.vertex, s.coll);
   } else if (s.model.inv_mass[i] != 0.0f) {
     next = contact_ray(s.x[i], last, r.vertex, s.coll);
   }
   s.rays[i] = next;
 }
 
-// Responds to the contact ray's hit, then checks the new state. Returns false on a blow-up.
+// Responds to the second ray's hit, then checks the new state. Returns false on a blow-up.
 RC_HD bool stage_respond_contact(const StepView& s, uint32_t i) {
   const Ray r = s.rays[i];
   if (r.tmax > 0.0f && s.hits[i].kind != kHitNone) {

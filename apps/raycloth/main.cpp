@@ -1,0 +1,41 @@
+#include <spdlog/spdlog.h>
+
+#include <iostream>
+#include <vector>
+
+#include "commands.h"
+#include "raycloth/error.h"
+
+namespace raycloth::cli {
+
+int guarded(const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const InputError& e) {
+    std::cerr << "raycloth: error: " << e.what() << "\n";
+    return 2;
+  } catch (const SimulationError& e) {
+    std::cerr << "raycloth: error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "raycloth: error: " << e.what() << "\n";
+    return 1;
+  }
+}
+
+}  // namespace raycloth::cli
+
+int main(int argc, char** argv) {
+  CLI::App app{"raycloth: mass-spring cloth with ray-traced collision detection"};
+  app.require_subcommand(1);
+  spdlog::set_pattern("[%H:%M:%S] %^%l%$ %v");
+  std::vector<std::pair<CLI::App*, raycloth::cli::Action>> actions;
+  raycloth::cli::Action run = raycloth::cli::add_run_command(app);
+  raycloth::cli::Action bench = raycloth::cli::add_bench_command(app);
+  CLI11_PARSE(app, argc, argv);
+  for (auto* sub : app.get_subcommands()) {
+    if (sub->get_name() == "run") return run();
+    if (sub->get_name() == "bench") return bench();
+  }
+  return 1;
+}

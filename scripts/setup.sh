@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Installs raycloth's dependencies (Debian 12 packages) and builds it in ./build.
+# The CUDA backend is built too when nvcc is found (e.g. /usr/local/cuda/bin/nvcc).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(cmake ninja-build g++ pkg-config libembree-dev libtbb-dev nlohmann-json3-dev libcli11-dev
+          libtinyobjloader-dev libspdlog-dev libfmt-dev libstb-dev libtinygltf-dev libgtest-dev
+          libbenchmark-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+cuda_args=()
+if ! command -v nvcc >/dev/null && [ -x /usr/local/cuda/bin/nvcc ]; then
+  cuda_args+=("-DCMAKE_CUDA_COMPILER=/usr/local/cuda/bin/nvcc")
+fi
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DRAYCLOTH_VALIDATE="${RAYCLOTH_VALIDATE:-OFF}" "${cuda_args[@]}"
+cmake --build build -j "$(nproc)"

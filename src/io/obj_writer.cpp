@@ -1,0 +1,66 @@
+#include "io/obj_writer.h"
+
+#include <fmt/format.h>
+#include <fmt/os.h>
+
+#include "io/atomic_file.h"
+
+namespace raycloth {
+
+std::vector<Vec3> cloth_vertex_normals(const ClothModel& model, const std::vector<Vec3>& x) {
+  std::vector<Vec3> n(x.size(), make_vec3(0, 0, 0));
+  for (size_t t = 0; t < model.triangles.size(); t += 3) {
+    const uint32_t a = model.triangles[t], b = model.triangles[t + 1], c = model.triangles[t + 2];
+    const Vec3 fn = cross(x[b] - x[a], x[c] - x[a]);
+    n[a] += fn;
+    n[b] += fn;
+    n[c] += fn;
+  }
+  for (auto& v : n) v = normalize_or_zero(v);
+  return n;
+}
+
+namespace {
+void put(std::ostream& out, const std::string& s) { out.write(s.data(), std::streamsize(s.size())); }
+}  // namespace
+
+void write_cloth_obj(const std::filesystem::path& path, const ClothModel& model, const std::vector<Vec3>& x) {
+  const std::vector<Vec3> n = cloth_vertex_normals(model, x);
+  write_file_atomically(path, [&](std::ostream& out) {
+    fmt::memory_buffer buf;
+    fmt::format_to(std::back_inserter(buf), "# raycloth cloth frame: {} vertices, {} triangles\n", x.size(),
+                   model.num_triangles());
+    for (const Vec3& p : x) fmt::format_to(std::back_inserter(buf), "v {:.6f} {:.6f} {:.6f}\n", p.x, p.y, p.z);
+    for (const Vec3& p : n) fmt::format_to(std::back_inserter(buf), "vn {:.5f} {:.5f} {:.5f}\n", p.x, p.y, p.z);
+    for (const Piece& piece : model.pieces) {
+      fmt::format_to(std::back_inserter(buf), "o {}\n", piece.name);
+      for (uint32_t t = piece.first_triangle; t < piece.first_triangle + piece.num_triangles; ++t) {
+        const uint32_t a = model.triangles[3 * t] + 1, b = model.triangles[3 * t + 1] + 1,
+                       c = model.triangles[3 * t + 2] + 1;
+        fmt::format_to(std::back_inserter(buf), "f {}//{} {}//{} {}//{}\n", a, a, b, b, c, c);
+      }
+    }
+    put(out, fmt::to_string(buf));
+  });
+}
+
+void write_obstacles_obj(const std::filesystem::path& path, const ObstacleSet& obstacles,
+                         const std::vector<Vec3>& world) {
+  write_file_atomically(path, [&](std::ostream& out) {
+    fmt::memory_buffer buf;
+    fmt::format_to(std::back_inserter(buf), "# raycloth obstacles in world space\n");
+    for (const Vec3& p : world) fmt::format_to(std::back_inserter(buf), "v {:.6f} {:.6f} {:.6f}\n", p.x, p.y, p.z);
+    for (size_t o = 0; o < obstacles.names.size(); ++o) {
+      fmt::format_to(std::back_inserter(buf), "o {}\n", obstacles.names[o]);
+      const size_t first = obstacles.first_triangle[o];
+      const size_t last = o + 1 < obstacles.names.size() ? obstacles.first_triangle[o + 1]
+                                                         : obstacles.world.num_triangles();
+      for (size_t t = first; t < last; ++t)
+        fmt::format_to(std::back_inserter(buf), "f {} {} {}\n", obstacles.world.indices[3 * t] + 1,
+                       obstacles.world.indices[3 * t + 1] + 1, obstacles.world.indices[3 * t + 2] + 1);
+    }
+    put(out, fmt::to_string(buf));
+  });
+}
+
+}  // namespace raycloth

@@ -1,0 +1,183 @@
+#include "io/run.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "io/atomic_file.h"
+#include "io/obj_writer.h"
+#include "raycloth/error.h"
+#include "sim/model.h"
+
+namespace raycloth {
+
+namespace fs = std::filesystem;
+
+std::string frame_name(const std::string& prefix, int index, const std::string& ext) {
+  return fmt::format("{}_{:04d}.{}", prefix, index, ext);
+}
+
+namespace {
+
+double kinetic_energy(const ClothModel& m, const std::vector<Vec3>& v) {
+  double e = 0;
+  for (size_t i = 0; i < v.size(); ++i)
+    if (m.inv_mass[i] > 0) e += 0.5 * double(m.mass[i]) * double(length_sq(v[i]));
+  return e;
+}
+
+class ObjFrames final : public FrameSink {
+ public:
+  void begin(Simulator&, const fs::path& out) override { dir_ = out / "frames"; }
+  void frame(Simulator& sim, const FrameRecord& r) override {
+    write_cloth_obj(dir_ / frame_name("cloth", r.index, "obj"), sim.model(), sim.positions());
+    if (sim.obstacles().any_moving)
+      write_obstacles_obj(dir_ / frame_name("obstacles", r.index, "obj"), sim.obstacles(), sim.obstacle_vertices());
+  }
+
+ private:
+  fs::path dir_;
+};
+
+// A bar with an ETA on a terminal, a log line per tenth of the run otherwise.
+class Progress {
+ public:
+  Progress(bool quiet, int total) : quiet_(quiet), tty_(isatty(STDERR_FILENO)), total_(total) {}
+  void update(int done, double elapsed) {
+    if (quiet_ || total_ <= 0) return;
+    const double frac = double(done) / total_;
+    const double eta = done > 0 ? elapsed * (total_ - done) / done : 0.0;
+    if (tty_) {
+      const int width = 30, filled = int(frac * width);
+      std::cerr << fmt::format("\r[{}{}] {:3.0f}% frame {}/{} ETA {:.0f}s ", std::string(filled, '#'),
+                               std::string(width - filled, '.'), frac * 100, done, total_, eta)
+                << std::flush;
+      if (done == total_) std::cerr << "\n";
+    } else if (done * 10 / total_ != last_decile_ || done == total_) {
+      last_decile_ = done * 10 / total_;
+      spdlog::info("frame {}/{} ({:.0f}%), ETA {:.0f} s", done, total_, frac * 100, eta);
+    }
+  }
+
+ private:
+  bool quiet_, tty_;
+  int total_;
+  int last_decile_ = 0;
+};
+
+nlohmann::json report_json(const RunReport& r, Simulator& sim) {
+  const ClothModel& m = sim.model();
+  nlohmann::json j;
+  j["scene"] = r.scene;
+  j["device"] = r.device;
+  j["vertices"] = m.num_vertices();
+  j["triangles"] = m.num_triangles();
+  j["springs"] = {{"stretch", m.spring_counts[0]}, {"shear", m.spring_counts[1]}, {"bend", m.spring_counts[2]},
+                  {"seam", m.spring_counts[3]}, {"total", m.springs.size()}};
+  j["obstacle_triangles"] = sim.obstacles().world.num_triangles();
+  j["dt"] = sim.scene().time.dt;
+  j["natural_period_T0"] = m.natural_period();
+  j["steps"] = r.steps;
+  j["simulated_time"] = r.simulated_time;
+  j["wall_time"] = r.wall_time;
+  j["steps_per_second"] = r.steps_per_second;
+  const double per = r.steps > 0 ? 1000.0 / double(r.steps) : 0.0;
+  j["stage_ms_per_step"] = {{"forces_and_integration", r.stages.integrate * per},
+                            {"acceleration_structure_update", r.stages.update * per},
+                            {"ray_casting", r.stages.cast * per},
+                            {"response", r.stages.respond * per}};
+  nlohmann::json frames = nlohmann::json::array();
+  for (const auto& f : r.frames)
+    frames.push_back({{"index", f.index}, {"time", f.time}, {"step", f.step}, {"hits", f.hits},
+                      {"kinetic_energy", f.kinetic_energy}, {"steps_per_second", f.steps_per_second}});
+  j["frames"] = frames;
+  j["final_check"] = {{"vertices_inside_obstacles", r.final_check.vertices_inside_obstacles},
+                      {"cloth_edge_crossings", r.final_check.cloth_edge_crossings}};
+  if (!r.error.empty()) j["error"] = r.error;
+  return j;
+}
+
+}  // namespace
+
+RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
+  SceneDef scene = scene_in;
+  if (opt.duration) {
+    if (!(*opt.duration > 0)) throw InputError(scene.source, "duration", fmt::format("must be positive (got {:g})", *opt.duration));
+    scene.time.duration = *opt.duration;
+  }
+  Simulator sim(scene, opt.sim);  // every input check happens here, before anything is written
+
+  const int steps_per_frame = std::max(1, int(std::lround(1.0 / (scene.time.fps * scene.time.dt))));
+  const uint64_t total_steps = uint64_t(std::llround(scene.time.duration / scene.time.dt));
+  const int num_frames = int((total_steps + steps_per_frame - 1) / steps_per_frame);
+
+  std::error_code ec;
+  fs::create_directories(opt.out_dir / "frames", ec);
+  if (ec) throw std::runtime_error(opt.out_dir.string() + ": cannot create the output folder: " + ec.message());
+
+  std::vector<std::shared_ptr<FrameSink>> sinks;
+  if (opt.write_obj) sinks.push_back(std::make_shared<ObjFrames>());
+  sinks.insert(sinks.end(), opt.sinks.begin(), opt.sinks.end());
+
+  RunReport report;
+  report.scene = scene.name;
+  report.device = sim.device();
+  write_obstacles_obj(opt.out_dir / "obstacles.obj", sim.obstacles(), sim.obstacle_vertices());
+  for (auto& s : sinks) s->begin(sim, opt.out_dir);
+
+  auto emit = [&](FrameRecord rec) {
+    rec.time = sim.time();
+    rec.step = sim.steps();
+    rec.hits = sim.last_hits();
+    rec.kinetic_energy = kinetic_energy(sim.model(), sim.velocities());
+    report.frames.push_back(rec);
+    for (auto& s : sinks) s->frame(sim, rec);
+  };
+
+  auto write_report = [&] {
+    report.steps = sim.steps();
+    report.simulated_time = sim.time();
+    report.stages = sim.stage_times();
+    report.steps_per_second = report.wall_time > 0 ? double(report.steps) / report.wall_time : 0.0;
+    const nlohmann::json j = report_json(report, sim);
+    write_file_atomically(opt.out_dir / "run.json", [&](std::ostream& out) { out << j.dump(2) << "\n"; });
+  };
+
+  Progress progress(opt.quiet, num_frames);
+  emit(FrameRecord{});
+  using Clock = std::chrono::steady_clock;
+  const auto run_start = Clock::now();
+  try {
+    for (int f = 1; f <= num_frames; ++f) {
+      const int n = int(std::min<uint64_t>(steps_per_frame, total_steps - sim.steps()));
+      const auto t0 = Clock::now();
+      sim.step(n);
+      const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
+      report.wall_time += dt;
+      FrameRecord rec;
+      rec.index = f;
+      rec.steps_per_second = dt > 0 ? n / dt : 0.0;
+      emit(rec);
+      progress.update(f, std::chrono::duration<double>(Clock::now() - run_start).count());
+    }
+  } catch (const SimulationError& e) {
+    report.error = e.what();
+    write_report();
+    throw;
+  }
+  for (auto& s : sinks) s->end(sim);
+  report.final_check = inspect_penetration(sim.model(), sim.positions(), [&] {
+    TriMesh world = sim.obstacles().world;
+    world.vertices = sim.obstacle_vertices();
+    return world;
+  }());
+  write_report();
+  return report;
+}
+
+}  // namespace raycloth

@@ -1,0 +1,64 @@
+// Runs a scene to an output folder: frames, obstacles, run.json, progress. The CLI and the tests
+// both come through here; only the CLI decides to exit.
+#pragma once
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "collide/cpu/inspect.h"
+#include "raycloth/simulator.h"
+
+namespace raycloth {
+
+struct FrameRecord {
+  int index = 0;
+  double time = 0;
+  uint64_t step = 0;
+  uint64_t hits = 0;            // collision-buffer entries in the frame's last step
+  double kinetic_energy = 0;    // J
+  double steps_per_second = 0;  // wall-clock rate over the frame's steps
+};
+
+// Receives every output frame (frame 0 is the initial state). Writers of further formats and the
+// image renderer plug in here.
+class FrameSink {
+ public:
+  virtual ~FrameSink() = default;
+  virtual void begin(Simulator& sim, const std::filesystem::path& out_dir) { (void)sim, (void)out_dir; }
+  virtual void frame(Simulator& sim, const FrameRecord& record) = 0;
+  virtual void end(Simulator& sim) { (void)sim; }
+};
+
+struct RunOptions {
+  std::filesystem::path out_dir = "out";
+  SimOptions sim;
+  std::optional<double> duration;  // overrides the scene's
+  bool quiet = false;
+  std::vector<std::shared_ptr<FrameSink>> sinks;  // besides the OBJ frames
+  bool write_obj = true;
+};
+
+struct RunReport {
+  std::string scene;
+  std::string device;
+  uint64_t steps = 0;
+  double simulated_time = 0;
+  double wall_time = 0;  // seconds spent stepping (output excluded)
+  double steps_per_second = 0;
+  StageTimes stages;
+  std::vector<FrameRecord> frames;
+  PenetrationReport final_check;
+  std::string error;  // set when the run stopped on a SimulationError
+};
+
+// Throws InputError / SimulationError before anything is written when the scene cannot run; on a
+// blow-up during the run, writes run.json with the error, keeps the frames, and rethrows.
+RunReport run_scene(const SceneDef& scene, const RunOptions& options);
+
+std::string frame_name(const std::string& prefix, int index, const std::string& ext);
+
+}  // namespace raycloth

@@ -1,0 +1,62 @@
+// Small scenes built in code for the tests.
+#pragma once
+#include "raycloth/scene.h"
+
+namespace raycloth::test {
+
+inline MaterialDef test_material(float damping = 0.0f) {
+  MaterialDef m;
+  m.name = "test";
+  m.density = 0.2f;
+  m.stretch = 200.0f;
+  m.shear = 40.0f;
+  m.bend = 4.0f;
+  m.damping = damping;
+  return m;
+}
+
+// One horizontal square panel of n x n vertices and `size` metres at height y, no obstacles.
+inline SceneDef panel_scene(int n, float size, float y, float damping = 0.0f) {
+  SceneDef s;
+  s.name = "test_panel";
+  s.time.dt = 4e-4;
+  s.time.duration = 0.1;
+  s.materials.push_back(test_material(damping));
+  PanelDef p;
+  p.name = "cloth";
+  p.material = "test";
+  p.width = p.height = size;
+  p.resolution_u = p.resolution_v = n;
+  p.transform.position = {0, y, 0};
+  s.panels.push_back(p);
+  return s;
+}
+
+inline ObstacleDef sphere_obstacle(float radius, Float3 at) {
+  ObstacleDef o;
+  o.name = "sphere";
+  o.type = ObstacleType::UvSphere;
+  o.radius = radius;
+  o.transform.position = at;
+  return o;
+}
+
+inline ObstacleDef box_obstacle(Float3 size, Float3 at) {
+  ObstacleDef o;
+  o.name = "box";
+  o.type = ObstacleType::Box;
+  o.size = size;
+  o.transform.position = at;
+  return o;
+}
+
+inline ObstacleDef plane_obstacle(float size, Float3 at) {
+  ObstacleDef o;
+  o.name = "plane";
+  o.type = ObstacleType::Plane;
+  o.size = {size, 1, size};
+  o.transform.position = at;
+  return o;
+}
+
+}  // namespace raycloth::test

@@ -1,0 +1,182 @@
+// Geometric outcomes of the ray-traced collision handling: no vertex inside an obstacle, no cloth
+// crossing cloth, no tunnelling, resting and sliding contact, two-sided cloth, own triangles.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "collide/cpu/embree_collider.h"
+#include "collide/cpu/inspect.h"
+#include "fixtures.h"
+#include "raycloth/simulator.h"
+#include "sim/model.h"
+
+using namespace raycloth;
+
+namespace {
+PenetrationReport inspect(Simulator& sim) {
+  TriMesh world = sim.obstacles().world;
+  world.vertices = sim.obstacle_vertices();
+  return inspect_penetration(sim.model(), sim.positions(), world);
+}
+}  // namespace
+
+TEST(Collision, ClothDroppedOnSphereEndsWithNoVertexInside) {
+  SceneDef s = test::panel_scene(21, 0.6f, 0.56f, 1.0f);
+  s.obstacles.push_back(test::sphere_obstacle(0.5f, {0, 0, 0}));
+  Simulator sim(s);
+  for (int k = 0; k < 10; ++k) {
+    sim.step(250);
+    ASSERT_EQ(inspect(sim).vertices_inside_obstacles, 0u) << "after " << sim.steps() << " steps";
+  }
+  EXPECT_GT(sim.last_hits(), 0u);
+  // It rests on the sphere: the centre vertex is just above the pole.
+  const Vec3 centre = sim.positions()[10 * 21 + 10];
+  EXPECT_NEAR(centre.y, 0.5f + s.collision.thickness, 2e-3f);
+}
+
+TEST(Collision, ClothDroppedOnClothLyingOnBoxStaysOnTop) {
+  SceneDef s = test::panel_scene(15, 0.42f, 0.402f, 1.0f);  // lower cloth, resting on the box top
+  PanelDef upper = s.panels[0];
+  upper.name = "upper";
+  upper.width = upper.height = 0.3f;
+  upper.resolution_u = upper.resolution_v = 11;
+  upper.transform.position = {0.02f, 0.45f, 0.01f};
+  upper.transform.rotation = {0, 30, 0};
+  s.panels.push_back(upper);
+  s.obstacles.push_back(test::box_obstacle({0.6f, 0.4f, 0.6f}, {0, 0.2f, 0}));
+  Simulator sim(s);
+  const Piece& up = sim.model().pieces[1];
+  for (int k = 0; k < 8; ++k) {
+    sim.step(250);
+    const PenetrationReport r = inspect(sim);
+    ASSERT_EQ(r.cloth_edge_crossings, 0u) << "after " << sim.steps() << " steps";
+    ASSERT_EQ(r.vertices_inside_obstacles, 0u);
+  }
+  // Every upper vertex over the lower cloth lies above it (the lower cloth lies on the box top at
+  // y ~ 0.402); upper corners that reach past it may lie on the box itself.
+  size_t over = 0;
+  for (uint32_t i = up.first_vertex; i < up.first_vertex + up.num_vertices(); ++i) {
+    const Vec3 p = sim.positions()[i];
+    if (std::abs(p.x) > 0.19f || std::abs(p.z) > 0.19f) continue;
+    ++over;
+    EXPECT_GT(p.y, 0.402f + 0.5f * s.collision.thickness) << "vertex " << i;
+  }
+  EXPECT_GT(over, 100u);
+}
+
+TEST(Collision, FastVertexDoesNotTunnelThroughThinPlane) {
+  SceneDef s = test::panel_scene(3, 0.02f, 1.0f);
+  s.gravity = {0, -4000.0f, 0};  // ~280 m/s at the plane: 0.11 m per step, 22x the tolerance
+  s.obstacles.push_back(test::plane_obstacle(2.0f, {0, 0, 0}));
+  Simulator sim(s);
+  for (int k = 0; k < 300; ++k) {
+    sim.step(1);
+    for (const Vec3& p : sim.positions()) ASSERT_GE(p.y, 0.0f) << "tunnelled at step " << sim.steps();
+  }
+  EXPECT_LT(sim.positions()[0].y, 0.01f);  // it did reach the plane
+}
+
+TEST(Collision, ClothRestingOnPlaneStaysOnItForManySteps) {
+  SceneDef s = test::panel_scene(11, 0.3f, 0.002f, 0.5f);
+  s.obstacles.push_back(test::plane_obstacle(2.0f, {0, 0, 0}));
+  Simulator sim(s);
+  for (int k = 0; k < 50; ++k) {
+    sim.step(100);
+    for (const Vec3& p : sim.positions()) {
+      ASSERT_GE(p.y, 0.5f * s.collision.thickness) << "step " << sim.steps();
+      ASSERT_LE(p.y, 0.01f) << "step " << sim.steps();
+    }
+  }
+}
+
+TEST(Collision, SlidingContactOnTiltedPlaneHolds) {
+  // No friction on a 25 degree slope: the cloth slides along the plane, its velocity parallel to
+  // it, and must neither sink in nor lift off.
+  SceneDef s = test::panel_scene(9, 0.2f, 0.0f, 0.0f);
+  const float tilt = 25.0f;
+  s.panels[0].transform.rotation = {0, 0, tilt};
+  s.panels[0].transform.position = {0, 0.003f, 0};
+  s.collision.friction = 0.0f;
+  ObstacleDef plane = test::plane_obstacle(6.0f, {0, 0, 0});
+  plane.transform.rotation = {0, 0, tilt};
+  s.obstacles.push_back(plane);
+  Simulator sim(s);
+  const Vec3 n = make_vec3(-std::sin(tilt * float(M_PI) / 180), std::cos(tilt * float(M_PI) / 180), 0);
+  for (int k = 0; k < 40; ++k) {
+    sim.step(50);
+    for (const Vec3& p : sim.positions()) {
+      const float d = dot(p, n);
+      ASSERT_GE(d, 0.5f * s.collision.thickness) << "sank in at step " << sim.steps();
+      ASSERT_LE(d, 0.01f) << "lifted off at step " << sim.steps();
+    }
+  }
+  EXPECT_LT(sim.positions()[0].x, -0.1f);  // it slid down the slope
+}
+
+TEST(Collision, VertexInsideClosedObstacleIsPushedOut) {
+  SceneDef s = test::panel_scene(7, 0.1f, 0.3f, 1.0f);
+  s.obstacles.push_back(test::box_obstacle({0.4f, 0.4f, 0.4f}, {0, 0.2f, 0}));
+  Simulator sim(s);
+  ASSERT_EQ(inspect(sim).vertices_inside_obstacles, 49u);
+  sim.step(1000);  // falls onto the inside of the bottom face and is pushed out through it
+  EXPECT_EQ(inspect(sim).vertices_inside_obstacles, 0u);
+}
+
+TEST(Collision, ClothIsTwoSided) {
+  // A cloth rising (gravity reversed) into a pinned cloth from below stays below it.
+  SceneDef s = test::panel_scene(15, 0.42f, 0.5f, 1.0f);
+  PinDef pin;
+  pin.panel = "cloth";
+  pin.range = std::array<int, 2>{0, 15 * 15 - 1};
+  s.pins.push_back(pin);
+  PanelDef riser = s.panels[0];
+  riser.name = "riser";
+  riser.width = riser.height = 0.2f;
+  riser.resolution_u = riser.resolution_v = 8;
+  riser.transform.position = {0.01f, 0.4f, 0.02f};
+  riser.transform.rotation = {0, 20, 0};
+  s.panels.push_back(riser);
+  s.gravity = {0, 9.81f, 0};
+  Simulator sim(s);
+  const Piece& r = sim.model().pieces[1];
+  sim.step(2000);
+  EXPECT_EQ(inspect(sim).cloth_edge_crossings, 0u);
+  for (uint32_t i = r.first_vertex; i < r.first_vertex + r.num_vertices(); ++i)
+    EXPECT_LT(sim.positions()[i].y, 0.5f - 0.5f * s.collision.thickness);
+  EXPECT_GT(sim.positions()[r.first_vertex].y, 0.49f);  // it did reach the pinned cloth
+}
+
+TEST(Collision, RaysNeverHitTheirOwnVertexTriangles) {
+  SceneDef s = test::panel_scene(6, 0.15f, 0.0f);
+  s.seams.clear();
+  const ClothModel m = build_cloth_model(s);
+  auto collider = make_embree_collider();
+  collider->set_obstacles(nullptr, 0, nullptr, 0, false);
+  collider->set_cloth(m.num_vertices(), m.collision_triangles.data(), m.tri_alias.data(), m.num_collision_triangles(), true);
+  collider->update_cloth(m.initial_positions.data());
+  // Rays from 1 mm above each vertex, down through the vertex's own triangles.
+  std::vector<Ray> rays;
+  for (uint32_t i = 0; i < m.num_vertices(); ++i)
+    for (Vec3 d : {make_vec3(0, -1, 0), normalize_or_zero(make_vec3(0.3f, -1, 0.2f))}) {
+      Ray r;
+      r.org = m.initial_positions[i] + make_vec3(0, 0.001f, 0);
+      r.dir = d;
+      r.tmax = 0.01f;
+      r.vertex = m.alias[i];
+      rays.push_back(r);
+    }
+  std::vector<RawHit> hits(rays.size());
+  collider->cast(rays.data(), rays.size(), hits.data());
+  for (size_t k = 0; k < hits.size(); ++k) EXPECT_EQ(hits[k].kind, kHitNone) << "ray " << k;
+  // The same rays cast for another vertex do hit the cloth.
+  for (auto& r : rays) r.vertex = 0xFFFFFFFFu;
+  collider->cast(rays.data(), rays.size(), hits.data());
+  size_t interior = 0, hit = 0;
+  for (size_t k = 0; k < hits.size(); ++k) {
+    const uint32_t i = uint32_t(k / 2), u = i % 6, v = i / 6;
+    if (u == 0 || v == 0 || u == 5 || v == 5) continue;  // rays from the rim may leave the cloth
+    ++interior;
+    hit += hits[k].kind == kHitCloth;
+  }
+  EXPECT_EQ(hit, interior);
+}
