@@ -1,0 +1,91 @@
+// The command-line tool end to end: the default scene (shortened), its output folder, bad input.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int code;
+  std::string err;
+};
+
+Result run_cli(const std::string& args, const fs::path& dir) {
+  fs::create_directories(dir);
+  const fs::path err = dir / "stderr.txt";
+  const std::string cmd = std::string(RAYCLOTH_CLI) + " " + args + " > " + (dir / "stdout.txt").string() + " 2> " + err.string();
+  const int status = std::system(cmd.c_str());
+  std::ifstream in(err);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return {WEXITSTATUS(status), ss.str()};
+}
+
+fs::path fresh_dir(const std::string& name) {
+  fs::path d = fs::temp_directory_path() / ("raycloth_cli_" + name);
+  fs::remove_all(d);
+  return d;
+}
+
+}  // namespace
+
+TEST(Cli, DefaultSceneShortenedRunsAndEndsWithNoVertexInsideTheSphere) {
+  const fs::path dir = fresh_dir("default");
+  const Result r = run_cli("run --quiet --duration 0.4 --out " + (dir / "out").string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const fs::path out = dir / "out";
+  EXPECT_TRUE(fs::exists(out / "frames" / "cloth_0000.obj"));
+  EXPECT_TRUE(fs::exists(out / "frames" / "cloth_0012.obj"));
+  EXPECT_TRUE(fs::exists(out / "obstacles.obj"));
+  for (const auto& e : fs::directory_iterator(out / "frames")) EXPECT_NE(e.path().extension(), ".tmp");
+  std::ifstream in(out / "run.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["scene"], "seed_drape");
+  EXPECT_EQ(j["vertices"], 4252);
+  EXPECT_EQ(j["obstacle_triangles"], 1152);
+  EXPECT_EQ(j["steps"], 1000);
+  EXPECT_EQ(j["frames"].size(), 14u);  // frame 0 and 13 frames of 83 steps (the last one shorter)
+  EXPECT_GT(j["frames"].back()["hits"].get<int>(), 0);
+  EXPECT_EQ(j["final_check"]["vertices_inside_obstacles"], 0);
+  for (const char* stage : {"forces_and_integration", "acceleration_structure_update", "ray_casting", "response"})
+    EXPECT_GT(j["stage_ms_per_step"][stage].get<double>(), 0.0) << stage;
+  // One `o NAME` per panel in each frame, with vertex normals.
+  std::ifstream obj(out / "frames" / "cloth_0012.obj");
+  std::string line;
+  int objects = 0, normals = 0;
+  while (std::getline(obj, line)) objects += line.rfind("o ", 0) == 0, normals += line.rfind("vn ", 0) == 0;
+  EXPECT_EQ(objects, 3);
+  EXPECT_EQ(normals, 4252);
+}
+
+TEST(Cli, BadSceneFailsWithMessageAndWritesNothing) {
+  const fs::path dir = fresh_dir("bad");
+  fs::create_directories(dir);
+  std::ofstream(dir / "bad.json") << R"({"panels": [{"name": "a", "material": "nope", "size": [1, 1], "resolution": [3, 3]}]})";
+  const Result r = run_cli("run " + (dir / "bad.json").string() + " --out " + (dir / "out").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "raycloth: error: " + (dir / "bad.json").string() + ": /panels/0/material: unknown material 'nope'\n");
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+TEST(Cli, UnstableTimeStepIsRefusedBeforeAnythingIsWritten) {
+  const fs::path dir = fresh_dir("unstable");
+  fs::create_directories(dir);
+  std::ifstream seed(std::string(RAYCLOTH_SOURCE_DIR) + "/scenes/seed_drape.json");
+  std::stringstream ss;
+  ss << seed.rdbuf();
+  std::string text = ss.str();
+  text.replace(text.find("\"dt\": 0.0004"), 12, "\"dt\": 0.01");
+  std::ofstream(dir / "unstable.json") << text;
+  const Result r = run_cli("run " + (dir / "unstable.json").string() + " --out " + (dir / "out").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("/time/dt: time step 0.01 s is not below the natural period T0"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
