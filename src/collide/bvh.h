@@ -211,7 +211,8 @@ RC_HD bool ray_box(const Aabb& b, Vec3 org, Vec3 inv_dir, float tfar, float& tne
   return t0 <= t1;
 }
 
-// Moeller-Trumbore, two-sided, accepting 0 <= t <= tfar (Embree's tnear = 0 and inclusive tfar).
+// Moeller-Trumbore, two-sided, accepting 0 < t <= tfar: Embree's depth test with tnear = 0 (a hit
+// exactly at the origin does not count, one exactly at tfar does).
 RC_HD bool ray_triangle(const Vec3* v, const uint32_t* idx, uint32_t prim, Vec3 org, Vec3 dir, float tfar, float& t) {
   const Vec3 a = v[idx[3 * prim]], b = v[idx[3 * prim + 1]], c = v[idx[3 * prim + 2]];
   const Vec3 e1 = b - a, e2 = c - a;
@@ -226,7 +227,7 @@ RC_HD bool ray_triangle(const Vec3* v, const uint32_t* idx, uint32_t prim, Vec3 
   const float w = dot(dir, q) * inv_det;
   if (w < 0.0f || u + w > 1.0f) return false;
   const float th = dot(e2, q) * inv_det;
-  if (!(th >= 0.0f && th <= tfar)) return false;
+  if (!(th > 0.0f && th <= tfar)) return false;
   t = th;
   return true;
 }

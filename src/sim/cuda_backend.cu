@@ -7,6 +7,7 @@
 #include <cub/block/block_reduce.cuh>
 
 #include <chrono>
+#include <cstddef>
 #include <cstdlib>
 #include <string>
 #include <vector>
@@ -121,7 +122,8 @@ class CudaBackend final : public Backend {
   explicit CudaBackend(const BackendInput& in) : scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles) {
     const char* profile = std::getenv("RAYCLOTH_CUDA_PROFILE");
     profile_ = profile && *profile && std::string(profile) != "0";
-    CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+    // A blocking stream: it waits for the setup copies (cudaMemcpy on the legacy default stream).
+    CUDA_CHECK(cudaStreamCreate(&stream_));
     CUDA_CHECK(cudaEventCreate(&start_));
     CUDA_CHECK(cudaEventCreate(&stop_));
     for (cudaEvent_t& e : events_.e) CUDA_CHECK(cudaEventCreate(&e));
@@ -166,7 +168,7 @@ class CudaBackend final : public Backend {
       for (int k = 0; k < n; ++k) CUDA_CHECK(cudaGraphLaunch(graphs_[(parity_ + k) & 1], stream_));
       CUDA_CHECK(cudaEventRecord(stop_, stream_));
     }
-    if (cloth_.num_prims() > 0) cloth_.area(&control_.data()->cloth_area, stream_);
+    if (cloth_.num_prims() > 0) cloth_.area(control_field<float>(offsetof(StepControl, cloth_area)), stream_);
     CUDA_CHECK(cudaMemcpyAsync(control_host_, control_.data(), sizeof(StepControl), cudaMemcpyDeviceToHost, stream_));
     CUDA_CHECK(cudaStreamSynchronize(stream_));
     // Without the profile the graph runs all stages at once; its time is reported under integrate.
@@ -183,7 +185,7 @@ class CudaBackend final : public Backend {
     // Rebuild the cloth tree for the next call when refitting has degraded it (docs/gpu.md).
     if (cloth_.num_prims() > 0 && bvh_needs_rebuild(c.cloth_area, c.cloth_built_area)) {
       auto t = std::chrono::steady_clock::now();
-      cloth_.build(x_[parity_].data(), cloth_indices_.data(), stream_, &control_.data()->cloth_built_area);
+      cloth_.build(x_[parity_].data(), cloth_indices_.data(), stream_, built_area());
       CUDA_CHECK(cudaStreamSynchronize(stream_));
       times.update += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
       ++cloth_rebuilds_;
@@ -201,6 +203,14 @@ class CudaBackend final : public Backend {
   }
 
  private:
+  // Device address of one StepControl field.
+  template <class T>
+  T* control_field(size_t offset) const {
+    return reinterpret_cast<T*>(reinterpret_cast<char*>(control_.data()) + offset);
+  }
+
+  float* built_area() const { return control_field<float>(offsetof(StepControl, cloth_built_area)); }
+
   static double elapsed(cudaEvent_t a, cudaEvent_t b) {
     float ms = 0;
     CUDA_CHECK(cudaEventElapsedTime(&ms, a, b));
@@ -239,12 +249,14 @@ class CudaBackend final : public Backend {
     obstacle_v_ = DeviceBuffer<Vec3>(ov);
     obstacle_indices_ = DeviceBuffer<uint32_t>(obstacles_.world.indices);
     if (obstacles_.any_moving) upload_moving_vertices();
+    // cudaMemcpy from pageable memory may return before the data has arrived: wait for it.
+    CUDA_CHECK(cudaDeviceSynchronize());
 
     obstacle_tree_.allocate(uint32_t(obstacles_.world.num_triangles()));
     obstacle_tree_.build(obstacle_x_.data(), obstacle_indices_.data(), stream_);
     if (scene_.collision.cloth_cloth) {
       cloth_.allocate(m.num_triangles());
-      cloth_.build(x_[0].data(), cloth_indices_.data(), stream_, &control_.data()->cloth_built_area);
+      cloth_.build(x_[0].data(), cloth_indices_.data(), stream_, built_area());
     }
     CUDA_CHECK(cudaStreamSynchronize(stream_));
   }
