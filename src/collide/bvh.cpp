@@ -9,10 +9,25 @@
 #include <algorithm>
 #include <cstring>
 #include <numeric>
+#include <string>
+
+#include "raycloth/error.h"
 
 namespace raycloth {
 
 namespace {
+
+// RAYCLOTH_VALIDATE builds check every tree after each build and refit.
+void validate(const HostBvh& bvh, const Vec3* vertices, const uint32_t* indices, const char* which) {
+#if defined(RAYCLOTH_VALIDATE)
+  const uint32_t bad = bvh_find_bad_node(bvh, vertices, indices);
+  if (bad != kBvhNone)
+    throw SimulationError(std::string("BVH invariant broken in the ") + which + " tree: node " + std::to_string(bad) +
+                          " does not contain what is below it");
+#else
+  (void)bvh, (void)vertices, (void)indices, (void)which;
+#endif
+}
 
 template <class F>
 void parallel_for_index(uint32_t n, F&& f) {
@@ -102,6 +117,7 @@ void BvhCollider::set_obstacles(const Vec3* vertices, size_t num_vertices, const
   obstacle_indices_.assign(indices, indices + 3 * num_triangles);
   obstacles_ = HostBvh();
   build_bvh(obstacles_, obstacle_vertices_.data(), obstacle_indices_.data(), uint32_t(num_triangles));
+  validate(obstacles_, obstacle_vertices_.data(), obstacle_indices_.data(), "obstacle");
 }
 
 // Obstacles move rigidly, which keeps the hierarchy's quality: a refit is enough.
@@ -109,6 +125,7 @@ void BvhCollider::update_obstacles(const Vec3* vertices) {
   if (obstacles_.num_prims == 0) return;
   std::memcpy(obstacle_vertices_.data(), vertices, obstacle_vertices_.size() * sizeof(Vec3));
   refit_bvh(obstacles_, obstacle_vertices_.data(), obstacle_indices_.data());
+  validate(obstacles_, obstacle_vertices_.data(), obstacle_indices_.data(), "obstacle");
 }
 
 void BvhCollider::set_cloth(size_t num_vertices, const uint32_t* indices, const uint32_t* tri_alias,
@@ -130,6 +147,7 @@ void BvhCollider::update_cloth(const Vec3* positions) {
     build_bvh(cloth_, cloth_positions_.data(), cloth_indices_.data(), n);
     cloth_built_ = true;
     cloth_area_ = cloth_.built_area;
+    validate(cloth_, cloth_positions_.data(), cloth_indices_.data(), "cloth");
     return;
   }
   refit_bvh(cloth_, cloth_positions_.data(), cloth_indices_.data());
@@ -138,6 +156,7 @@ void BvhCollider::update_cloth(const Vec3* positions) {
     build_bvh(cloth_, cloth_positions_.data(), cloth_indices_.data(), n);
     cloth_area_ = cloth_.built_area;
   }
+  validate(cloth_, cloth_positions_.data(), cloth_indices_.data(), "cloth");
 }
 
 BvhScene BvhCollider::scene() {
