@@ -55,6 +55,20 @@ RC_HD Aabb triangle_box(const Vec3* v, const uint32_t* idx, uint32_t prim) {
   return r;
 }
 
+// A leaf's box: the triangle's, grown by about 8 ulps of its largest coordinate. Moeller-Trumbore
+// rounds differently from the slab test, and without the margin a ray that meets a triangle exactly
+// at a face of its box (through a shared vertex, nearly parallel to that face) can lose the hit to
+// the box test in one tree and keep it in another.
+RC_HD Aabb leaf_box(const Vec3* v, const uint32_t* idx, uint32_t prim) {
+  Aabb b = triangle_box(v, idx, prim);
+  const float m = fmaxf(fmaxf(fmaxf(fabsf(b.lo.x), fabsf(b.hi.x)), fmaxf(fabsf(b.lo.y), fabsf(b.hi.y))),
+                        fmaxf(fabsf(b.lo.z), fabsf(b.hi.z)));
+  const float pad = m * 1e-6f + 1e-30f;
+  b.lo = b.lo - make_vec3(pad, pad, pad);
+  b.hi = b.hi + make_vec3(pad, pad, pad);
+  return b;
+}
+
 RC_HD Vec3 triangle_centroid(const Vec3* v, const uint32_t* idx, uint32_t prim) {
   return (v[idx[3 * prim]] + v[idx[3 * prim + 1]] + v[idx[3 * prim + 2]]) * (1.0f / 3.0f);
 }
@@ -173,7 +187,7 @@ RC_HD uint32_t bvh_arrive(uint32_t* counter) {
 RC_HD void refit_from_leaf(const BvhView& b, const Vec3* vertices, const uint32_t* indices, uint32_t k) {
   const uint32_t n = b.num_prims;
   uint32_t node = bvh_first_leaf(n) + k;
-  b.bounds[node] = triangle_box(vertices, indices, b.prim[k]);
+  b.bounds[node] = leaf_box(vertices, indices, b.prim[k]);
   for (node = b.parent[node]; node != kBvhNone; node = b.parent[node]) {
     if (bvh_arrive(&b.counter[node]) == 0) return;  // the sibling is still on its way
     b.bounds[node] = aabb_union(b.bounds[b.child[2 * node]], b.bounds[b.child[2 * node + 1]]);
@@ -274,7 +288,10 @@ RC_HD RawHit trace_nearest(const BvhView& b, const Vec3* vertices, const uint32_
       const uint32_t prim = b.prim[node - bvh_first_leaf(n)];
       float t;
       if (stats) stats->triangle();
-      if (ray_triangle(vertices, indices, prim, ray.org, ray.dir, tfar, t) && filter(prim)) {
+      // Equal distances (a ray through a shared vertex or edge) go to the lowest primitive id, so
+      // the hit does not depend on the tree's shape: rebuilding never changes a simulation.
+      if (ray_triangle(vertices, indices, prim, ray.org, ray.dir, tfar, t) &&
+          (best.kind == kHitNone || t < tfar || prim < best.prim) && filter(prim)) {
         tfar = t;
         best.t = t;
         best.prim = prim;

@@ -229,7 +229,7 @@ class CudaBackend final : public Backend {
     adj_k_ = DeviceBuffer<float>(m.adj_k);
     adj_kd_ = DeviceBuffer<float>(m.adj_kd);
     alias_ = DeviceBuffer<uint32_t>(m.alias);
-    cloth_indices_ = DeviceBuffer<uint32_t>(m.triangles);
+    cloth_indices_ = DeviceBuffer<uint32_t>(m.collision_triangles);  // cloth, then seam strips
     tri_alias_ = DeviceBuffer<uint32_t>(m.tri_alias);
 
     const std::vector<Vec3> zero(n, make_vec3(0, 0, 0));
@@ -255,7 +255,7 @@ class CudaBackend final : public Backend {
     obstacle_tree_.allocate(uint32_t(obstacles_.world.num_triangles()));
     obstacle_tree_.build(obstacle_x_.data(), obstacle_indices_.data(), stream_);
     if (scene_.collision.cloth_cloth) {
-      cloth_.allocate(m.num_triangles());
+      cloth_.allocate(m.num_collision_triangles());
       cloth_.build(x_[0].data(), cloth_indices_.data(), stream_, built_area());
     }
     CUDA_CHECK(cudaStreamSynchronize(stream_));
