@@ -53,8 +53,8 @@ struct Trajectory {
   void load(Collider& c) const {
     c.set_obstacles(obstacles.world.vertices.data(), obstacles.world.vertices.size(), obstacles.world.indices.data(),
                     obstacles.world.num_triangles(), false);
-    c.set_cloth(model.num_vertices(), model.triangles.data(), model.tri_alias.data(), model.num_triangles(),
-                scene.collision.cloth_cloth);
+    c.set_cloth(model.num_vertices(), model.collision_triangles.data(), model.tri_alias.data(),
+                model.num_collision_triangles(), scene.collision.cloth_cloth);
   }
 };
 
@@ -82,7 +82,7 @@ void refit(benchmark::State& state, bool bvh) {
     c->update_cloth((flip ? a : b).data());
     flip = !flip;
   }
-  state.counters["triangles"] = double(t.model.num_triangles());
+  state.counters["triangles"] = double(t.model.num_collision_triangles());
 }
 
 void cast(benchmark::State& state, bool bvh) {
@@ -108,8 +108,8 @@ void BM_BvhBuildCloth(benchmark::State& state) {
   const Trajectory& t = drape();
   const std::vector<Vec3>& x = t.x.at(kDrapeStep);
   HostBvh tree;
-  for (auto _ : state) build_bvh(tree, x.data(), t.model.triangles.data(), t.model.num_triangles());
-  state.counters["triangles"] = double(t.model.num_triangles());
+  for (auto _ : state) build_bvh(tree, x.data(), t.model.collision_triangles.data(), t.model.num_collision_triangles());
+  state.counters["triangles"] = double(t.model.num_collision_triangles());
 }
 
 void BM_BvhRefitCloth(benchmark::State& state) { refit(state, true); }
@@ -139,15 +139,9 @@ TraceStats cloth_work(HostBvh& tree, const Trajectory& t, const std::vector<Vec3
   TraceStats stats;
   const BvhView view = tree.view();
   for (const Ray& r : rays)
-    trace_nearest(view, x.data(), t.model.triangles.data(), r, SkipOwnTriangles{t.model.tri_alias.data(), r.vertex},
-                  kHitCloth, &stats);
+    trace_nearest(view, x.data(), t.model.collision_triangles.data(), r,
+                  SkipOwnTriangles{t.model.tri_alias.data(), r.vertex}, kHitCloth, &stats);
   return stats;
-}
-
-Aabb build_root(const std::vector<Vec3>& x, const Trajectory& t) {
-  HostBvh b;
-  build_bvh(b, x.data(), t.model.triangles.data(), t.model.num_triangles());
-  return b.bounds[0];
 }
 
 // At step range(0): the tree built at t = 0 and refit ever since against a tree built now. Counters:
@@ -158,11 +152,11 @@ void BM_ClothTreeDegradation(benchmark::State& state) {
   const int step = int(state.range(0));
   const std::vector<Vec3>& x0 = t.x.at(0);
   const std::vector<Vec3>& x = t.x.at(step);
-  const uint32_t n = t.model.num_triangles();
+  const uint32_t n = t.model.num_collision_triangles();
   HostBvh old_tree, fresh;
-  build_bvh(old_tree, x0.data(), t.model.triangles.data(), n);
-  refit_bvh(old_tree, x.data(), t.model.triangles.data());
-  build_bvh(fresh, x.data(), t.model.triangles.data(), n);
+  build_bvh(old_tree, x0.data(), t.model.collision_triangles.data(), n);
+  refit_bvh(old_tree, x.data(), t.model.collision_triangles.data());
+  build_bvh(fresh, x.data(), t.model.collision_triangles.data(), n);
   const std::vector<Ray> rays = t.rays(step);
   TraceStats refit_work, fresh_work;
   for (auto _ : state) {
@@ -175,9 +169,6 @@ void BM_ClothTreeDegradation(benchmark::State& state) {
   state.counters["area_vs_fresh"] = area / fresh.built_area;
   state.counters["nodes_ratio"] = double(refit_work.nodes) / double(fresh_work.nodes);
   state.counters["triangles_ratio"] = double(refit_work.triangles) / double(fresh_work.triangles);
-  const float built_norm = old_tree.built_area / aabb_half_area(build_root(x0, t));
-  state.counters["norm_vs_built"] = (area / aabb_half_area(old_tree.bounds[0])) / built_norm;
-  state.counters["norm_fresh_vs_built"] = (fresh.built_area / aabb_half_area(fresh.bounds[0])) / built_norm;
   state.counters["fresh_nodes_per_ray"] = double(fresh_work.nodes) / double(rays.size());
 }
 BENCHMARK(BM_ClothTreeDegradation)->DenseRange(500, 7500, 500)->Iterations(1)->Unit(benchmark::kMillisecond);
@@ -189,7 +180,7 @@ BENCHMARK(BM_ClothTreeDegradation)->DenseRange(500, 7500, 500)->Iterations(1)->U
 void BM_ClothRebuildTrigger(benchmark::State& state) {
   const SceneDef scene = default_scene();
   const ClothModel model = build_cloth_model(scene);
-  const uint32_t n = model.num_triangles();
+  const uint32_t n = model.num_collision_triangles();
   const float factors[] = {1.25f, 1.5f, 2.0f, 3.0f};
   constexpr int kFactors = 4;
   for (auto _ : state) {
@@ -198,14 +189,14 @@ void BM_ClothRebuildTrigger(benchmark::State& state) {
     int rebuilds[kFactors] = {};
     double first[kFactors] = {}, ratio_sum[kFactors] = {};
     int samples = 0;
-    for (HostBvh& tree : trees) build_bvh(tree, model.initial_positions.data(), model.triangles.data(), n);
+    for (HostBvh& tree : trees) build_bvh(tree, model.initial_positions.data(), model.collision_triangles.data(), n);
     for (int step = 1; step <= 7500; ++step) {
       sim.step(1);
       const std::vector<Vec3>& x = sim.positions();
       for (int f = 0; f < kFactors; ++f) {
-        refit_bvh(trees[f], x.data(), model.triangles.data());
+        refit_bvh(trees[f], x.data(), model.collision_triangles.data());
         if (bvh_needs_rebuild(bvh_area(trees[f].view()), trees[f].built_area, factors[f])) {
-          build_bvh(trees[f], x.data(), model.triangles.data(), n);
+          build_bvh(trees[f], x.data(), model.collision_triangles.data(), n);
           if (rebuilds[f]++ == 0) first[f] = sim.time();
         }
       }
@@ -215,7 +206,7 @@ void BM_ClothRebuildTrigger(benchmark::State& state) {
         t.v[step] = sim.velocities();
         const std::vector<Ray> rays = t.rays(step);
         HostBvh fresh;
-        build_bvh(fresh, x.data(), model.triangles.data(), n);
+        build_bvh(fresh, x.data(), model.collision_triangles.data(), n);
         const double fresh_nodes = double(cloth_work(fresh, t, x, rays).nodes);
         for (int f = 0; f < kFactors; ++f) ratio_sum[f] += double(cloth_work(trees[f], t, x, rays).nodes) / fresh_nodes;
         ++samples;

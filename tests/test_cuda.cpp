@@ -48,27 +48,40 @@ float deepest_penetration(const Simulator& sim, const std::vector<Vec3>& x) {
 
 struct RunResult {
   std::vector<Vec3> x;
-  uint64_t hits = 0;
+  uint64_t hits = 0;         // in the last step
+  uint64_t recent_hits = 0;  // summed over the last `single_steps` steps
   float penetration = 0;
 };
 
-RunResult run(const SceneDef& scene, const std::string& device, const std::vector<int>& chunks) {
+// `chunks` calls of step(n), then `single_steps` calls of step(1) to sum the hits of each.
+RunResult run(const SceneDef& scene, const std::string& device, const std::vector<int>& chunks,
+              int single_steps = 0) {
   SimOptions options;
   options.device = device;
   Simulator sim(scene, options);
   EXPECT_EQ(sim.device(), device);
   for (int n : chunks) sim.step(n);
   RunResult r;
+  for (int k = 0; k < single_steps; ++k) {
+    sim.step(1);
+    r.recent_hits += sim.last_hits();
+  }
   r.x = sim.positions();
   r.hits = sim.last_hits();
   r.penetration = deepest_penetration(sim, r.x);
   return r;
 }
 
-const std::vector<int> kThousandSteps(10, 100);  // 1000 steps in ten calls
+double max_distance(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  double worst = 0;
+  for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, double(length(a[i] - b[i])));
+  return worst;
+}
+
+const std::vector<int> kNineHundredSteps(9, 100);  // then 100 single steps: 1000 in all
 
 const RunResult& cpu_default_scene() {
-  static const RunResult r = run(default_scene(), "cpu", kThousandSteps);
+  static const RunResult r = run(default_scene(), "cpu", kNineHundredSteps, 100);
   return r;
 }
 
@@ -148,37 +161,49 @@ TEST(CudaParity, CpuReferenceIsPenetrationFree) {
   EXPECT_GT(cpu.hits, 100u) << "after 0.4 s the cloth should rest on the sphere";
 }
 
-// 1000 steps (0.4 s: the cloth has fallen, wrapped the sphere and folded) on both backends. The
-// tolerances are first guesses, not yet calibrated on a GPU (docs/gpu.md): float rounding differs
-// (the device contracts multiply-adds), and contact makes the drape sensitive to it.
+// Before the cloth reaches the sphere (first contact near step 393) nothing is chaotic: the two
+// backends differ only by rounding (the device contracts multiply-adds).
+TEST(CudaParity, DefaultSceneMatchesCpuCloselyBeforeContact) {
+  SKIP_WITHOUT_GPU();
+  const RunResult cpu = run(default_scene(), "cpu", {50, 300});
+  const RunResult gpu = run(default_scene(), "cuda", {50, 300});
+  EXPECT_LT(max_distance(cpu.x, gpu.x), 1e-4) << "metres";
+  EXPECT_EQ(gpu.hits, 0u);
+}
+
+// 1000 steps (0.4 s: the cloth has wrapped the sphere and folded). After contact the drape is
+// chaotic: tests/test_bvh.cpp (BvhTrace.DrapeWithTheBvhMatchesEmbreeCastByCastAndStaysWithinChaos)
+// shows a one-ulp change of one vertex ending 2-4 cm apart on average and the centroid up to ~1 cm
+// apart, with 0.89-1.1 times the hits. The bounds are those of that test; docs/gpu.md.
 TEST(CudaParity, DefaultSceneMatchesCpuOver1000Steps) {
   SKIP_WITHOUT_GPU();
   const RunResult& cpu = cpu_default_scene();
-  const RunResult gpu = run(default_scene(), "cuda", kThousandSteps);
+  const RunResult gpu = run(default_scene(), "cuda", kNineHundredSteps, 100);
   ASSERT_EQ(gpu.x.size(), cpu.x.size());
-  double sum = 0, worst = 0;
+  double mean = 0;
+  Vec3 cc = make_vec3(0, 0, 0), cg = cc;
   for (size_t i = 0; i < cpu.x.size(); ++i) {
-    const double d = length(gpu.x[i] - cpu.x[i]);
-    sum += d;
-    worst = std::max(worst, d);
+    mean += length(gpu.x[i] - cpu.x[i]);
+    cc += cpu.x[i];
+    cg += gpu.x[i];
   }
-  EXPECT_LT(sum / double(cpu.x.size()), 2e-3) << "mean distance, metres";
-  EXPECT_LT(worst, 3e-2) << "largest distance, metres";
-  const double hit_gap = std::fabs(double(gpu.hits) - double(cpu.hits));
-  EXPECT_LE(hit_gap, std::max(20.0, 0.05 * double(cpu.hits))) << "cpu " << cpu.hits << ", cuda " << gpu.hits;
+  mean /= double(cpu.x.size());
+  EXPECT_LT(mean, 0.08) << "mean distance, metres";
+  EXPECT_LT(length(cc - cg) / float(cpu.x.size()), 0.03f) << "distance of the centroids, metres";
+  EXPECT_NEAR(double(gpu.recent_hits) / double(cpu.recent_hits), 1.0, 0.25)
+      << "hits over the last 100 steps: cpu " << cpu.recent_hits << ", cuda " << gpu.recent_hits;
   const float thickness = default_scene().collision.thickness;
   EXPECT_LT(gpu.penetration, 0.5f * thickness);
 }
 
-// How the steps are split into calls changes the graph launches, the readbacks and when the cloth
-// tree may be rebuilt, never the simulation.
+// How the steps are split into calls changes the graph launches, the read-backs and when the cloth
+// tree is rebuilt, never the simulation: every kernel is deterministic and ties between equally
+// near triangles go to the lowest id whatever the tree.
 TEST(CudaParity, SplittingStepsIntoCallsDoesNotChangeTheResult) {
   SKIP_WITHOUT_GPU();
   const RunResult one = run(default_scene(), "cuda", {600});
   const RunResult many = run(default_scene(), "cuda", {1, 2, 97, 100, 300, 100});
-  double worst = 0;
-  for (size_t i = 0; i < one.x.size(); ++i) worst = std::max(worst, double(length(one.x[i] - many.x[i])));
-  EXPECT_LT(worst, 1e-5);
+  EXPECT_EQ(max_distance(one.x, many.x), 0.0);
   EXPECT_EQ(one.hits, many.hits);
 }
 
@@ -192,7 +217,7 @@ TEST(CudaParity, MovingObstacleMatchesCpu) {
   const RunResult gpu = run(scene, "cuda", chunks);
   double sum = 0;
   for (size_t i = 0; i < cpu.x.size(); ++i) sum += length(gpu.x[i] - cpu.x[i]);
-  EXPECT_LT(sum / double(cpu.x.size()), 2e-3);
+  EXPECT_LT(sum / double(cpu.x.size()), 0.08) << "mean distance, metres (chaotic after contact, as above)";
 }
 
 // A blow-up is found on the device (first bad vertex by atomicMin) and reported like the CPU does.
