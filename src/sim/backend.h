@@ -8,6 +8,7 @@
 
 #include "raycloth/simulator.h"
 #include "sim/model.h"
+#include "sim/stages.h"
 
 namespace raycloth {
 
@@ -31,6 +32,18 @@ struct BackendInput {
   const ClothModel* model;
   const ObstacleSet* obstacles;
 };
+
+// A step view with the scene's scalar parameters (collision settings, dt, gravity) filled in; the
+// backend adds its own array pointers.
+inline StepView step_view_for(const SceneDef& scene) {
+  StepView s;
+  s.coll.tolerance = scene.collision.tolerance;
+  s.coll.thickness = scene.collision.thickness;
+  s.coll.friction = scene.collision.friction;
+  s.coll.dt = float(scene.time.dt);
+  s.gravity = make_vec3(scene.gravity[0], scene.gravity[1], scene.gravity[2]);
+  return s;
+}
 
 std::unique_ptr<Backend> make_cpu_backend(const BackendInput& in);
 // Defined by the CUDA backend when it is built; otherwise throws SimulationError.

@@ -114,13 +114,8 @@ class CpuBackend final : public Backend {
 
  private:
   StepView view() {
-    StepView s;
+    StepView s = step_view_for(scene_);
     s.model = model_.view();
-    s.coll.tolerance = scene_.collision.tolerance;
-    s.coll.thickness = scene_.collision.thickness;
-    s.coll.friction = scene_.collision.friction;
-    s.coll.dt = float(scene_.time.dt);
-    s.gravity = make_vec3(scene_.gravity[0], scene_.gravity[1], scene_.gravity[2]);
     s.geom.obstacle_vertices = obstacle_x_.data();
     s.geom.obstacle_velocities = obstacles_.any_moving ? obstacle_v_.data() : nullptr;
     s.geom.obstacle_indices = obstacles_.world.indices.data();

@@ -296,7 +296,7 @@ class CudaBackend final : public Backend {
 
   StepView view(int parity) {
     const int cur = parity, next = parity ^ 1;
-    StepView s;
+    StepView s = step_view_for(scene_);
     s.model.num_vertices = model_.num_vertices();
     s.model.inv_mass = inv_mass_.data();
     s.model.damping = damping_.data();
@@ -308,11 +308,6 @@ class CudaBackend final : public Backend {
     s.model.alias = alias_.data();
     s.model.triangles = cloth_indices_.data();
     s.model.tri_alias = tri_alias_.data();
-    s.coll.tolerance = scene_.collision.tolerance;
-    s.coll.thickness = scene_.collision.thickness;
-    s.coll.friction = scene_.collision.friction;
-    s.coll.dt = float(scene_.time.dt);
-    s.gravity = make_vec3(scene_.gravity[0], scene_.gravity[1], scene_.gravity[2]);
     s.geom.obstacle_vertices = obstacle_x_.data();
     s.geom.obstacle_velocities = obstacles_.any_moving ? obstacle_v_.data() : nullptr;
     s.geom.obstacle_indices = obstacle_indices_.data();
