@@ -256,6 +256,54 @@ TEST(SceneErrors, MissingSceneFile) {
   expect_input_error([&] { load_scene_file(path); }, path + ": cannot open scene file: No such file or directory", "");
 }
 
+std::string with_output(const std::string& output) {
+  return R"({"materials": [{"name": "m"}],
+             "panels": [{"name": "a", "material": "m", "size": [1, 1], "resolution": [3, 3]}],
+             "output": )" +
+         output + "}";
+}
+
+TEST(SceneFile, OutputSectionIsRead) {
+  const SceneDef d = parse_scene(kOnePanel, "test.json");
+  EXPECT_EQ(d.output.formats, std::vector<std::string>{"obj"});
+  EXPECT_FALSE(d.output.render);
+  EXPECT_FALSE(d.output.camera.position.has_value());
+  const SceneDef s = parse_scene(with_output(R"({"formats": ["ply", "glb"], "render": true, "video": true,
+      "camera": {"position": [0, 1, 3], "target": [0, 0.5, 0], "fov": 30, "resolution": [320, 200], "samples": 2}})"),
+                                 "test.json");
+  EXPECT_EQ(s.output.formats, (std::vector<std::string>{"ply", "glb"}));
+  EXPECT_TRUE(s.output.render);
+  EXPECT_TRUE(s.output.video);
+  ASSERT_TRUE(s.output.camera.position.has_value());
+  EXPECT_EQ(*s.output.camera.position, (Float3{0, 1, 3}));
+  EXPECT_EQ(*s.output.camera.target, (Float3{0, 0.5f, 0}));
+  EXPECT_EQ(s.output.camera.fov, 30.0f);
+  EXPECT_EQ(s.output.camera.width, 320);
+  EXPECT_EQ(s.output.camera.height, 200);
+  EXPECT_EQ(s.output.camera.samples, 2);
+}
+
+TEST(SceneErrors, BadOutputSection) {
+  expect_parse_error(with_output(R"({"formats": ["obj", "fbx"]})"),
+                     "test.json: /output/formats/1: unknown format 'fbx' (expected obj, ply, pc2 or glb)",
+                     "/output/formats/1");
+  expect_parse_error(with_output(R"({"formats": ["ply", "ply"]})"),
+                     "test.json: /output/formats/1: format 'ply' is listed twice", "/output/formats/1");
+  expect_parse_error(with_output(R"({"formats": "ply"})"),
+                     "test.json: /output/formats: expected an array of format names, got string", "/output/formats");
+  expect_parse_error(with_output(R"({"camera": {"fov": 0}})"),
+                     "test.json: /output/camera/fov: must be between 0 and 180 degrees (got 0)", "/output/camera/fov");
+  expect_parse_error(with_output(R"({"camera": {"resolution": [0, 720]}})"),
+                     "test.json: /output/camera/resolution: both must be between 1 and 16384 pixels (got [0, 720])",
+                     "/output/camera/resolution");
+  expect_parse_error(with_output(R"({"camera": {"position": [1, 1, 1], "target": [1, 1, 1]}})"),
+                     "test.json: /output/camera/target: must differ from the camera position", "/output/camera/target");
+  expect_parse_error(with_output(R"({"camera": {"samples": 0}})"),
+                     "test.json: /output/camera/samples: must be between 1 and 1024 (got 0)", "/output/camera/samples");
+  expect_parse_error(with_output(R"({"render": "yes"})"),
+                     "test.json: /output/render: expected true or false, got string", "/output/render");
+}
+
 TEST(SceneValidate, CodeBuiltScenesGetTheSameChecks) {
   SceneDef s = code_scene();
   EXPECT_NO_THROW(validate_scene(s));

@@ -4,6 +4,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace raycloth {
@@ -89,6 +90,26 @@ struct ObstacleDef {
   std::optional<MotionDef> motion;
 };
 
+// The camera of rendered images. Position and target left unset frame the whole scene by themselves.
+struct CameraDef {
+  std::optional<Float3> position;  // metres
+  std::optional<Float3> target;    // metres
+  float fov = 40.0f;               // vertical field of view, degrees
+  int width = 1280, height = 720;  // pixels
+  int samples = 4;                 // antialiasing samples per pixel
+};
+
+// What a run writes besides run.json and obstacles.obj.
+struct OutputDef {
+  std::vector<std::string> formats{"obj"};  // any of obj, ply, pc2, glb
+  bool render = false;                      // images/frame_NNNN.png
+  bool video = false;                       // video.mp4 from the images (needs ffmpeg)
+  CameraDef camera;
+};
+
+// Names of the mesh formats a run can write, in the order `formats` accepts them.
+inline constexpr std::array<std::string_view, 4> kOutputFormats{"obj", "ply", "pc2", "glb"};
+
 struct SceneDef {
   std::string name = "scene";
   std::string source;  // file it came from ("" for built-in)
@@ -100,6 +121,7 @@ struct SceneDef {
   std::vector<SeamDef> seams;
   std::vector<PinDef> pins;
   std::vector<ObstacleDef> obstacles;
+  OutputDef output;
 };
 
 // Parses a scene file; throws InputError naming the file, the JSON path and the reason.
@@ -110,5 +132,8 @@ SceneDef parse_scene(const std::string& text, const std::string& origin);
 SceneDef default_scene();
 // Checks cross-references and ranges; throws InputError. parse_scene calls it.
 void validate_scene(const SceneDef& scene);
+// Checks the output section alone (the CLI's --format and --camera options go through it too);
+// `source` names the file in errors.
+void validate_output(const OutputDef& output, const std::string& source);
 
 }  // namespace raycloth

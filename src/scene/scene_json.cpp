@@ -78,7 +78,7 @@ class Reader {
   SceneDef scene(const json& j) {
     SceneDef s;
     s.source = file_;
-    object(j, "", {"name", "time", "gravity", "collision", "materials", "panels", "seams", "pins", "obstacles"});
+    object(j, "", {"name", "time", "gravity", "collision", "materials", "panels", "seams", "pins", "obstacles", "output"});
     optional(j, "", "name", [&](const json& v, const std::string& p) { s.name = string(v, p); });
     optional(j, "", "time", [&](const json& v, const std::string& p) { s.time = time(v, p); });
     optional(j, "", "gravity", [&](const json& v, const std::string& p) { s.gravity = float3(v, p); });
@@ -89,6 +89,7 @@ class Reader {
     list(j, "", "pins", false, [&](const json& v, const std::string& p, size_t) { s.pins.push_back(pin(v, p)); });
     list(j, "", "obstacles", false,
          [&](const json& v, const std::string& p, size_t i) { s.obstacles.push_back(obstacle(v, p, i)); });
+    optional(j, "", "output", [&](const json& v, const std::string& p) { s.output = output(v, p); });
     return s;
   }
 
@@ -202,6 +203,35 @@ class Reader {
     optional(j, ptr, "thickness", [&](const json& v, const std::string& p) { c.thickness = number_f(v, p); });
     optional(j, ptr, "friction", [&](const json& v, const std::string& p) { c.friction = number_f(v, p); });
     optional(j, ptr, "cloth_cloth", [&](const json& v, const std::string& p) { c.cloth_cloth = boolean(v, p); });
+    return c;
+  }
+
+  OutputDef output(const json& j, const std::string& ptr) const {
+    OutputDef o;
+    object(j, ptr, {"formats", "render", "video", "camera"});
+    optional(j, ptr, "formats", [&](const json& v, const std::string& p) {
+      if (!v.is_array()) fail(p, std::string("expected an array of format names, got ") + v.type_name());
+      o.formats.clear();
+      for (size_t i = 0; i < v.size(); ++i) o.formats.push_back(string(v[i], p + "/" + std::to_string(i)));
+    });
+    optional(j, ptr, "render", [&](const json& v, const std::string& p) { o.render = boolean(v, p); });
+    optional(j, ptr, "video", [&](const json& v, const std::string& p) { o.video = boolean(v, p); });
+    optional(j, ptr, "camera", [&](const json& v, const std::string& p) { o.camera = camera(v, p); });
+    return o;
+  }
+
+  CameraDef camera(const json& j, const std::string& ptr) const {
+    CameraDef c;
+    object(j, ptr, {"position", "target", "fov", "resolution", "samples"});
+    optional(j, ptr, "position", [&](const json& v, const std::string& p) { c.position = float3(v, p); });
+    optional(j, ptr, "target", [&](const json& v, const std::string& p) { c.target = float3(v, p); });
+    optional(j, ptr, "fov", [&](const json& v, const std::string& p) { c.fov = number_f(v, p); });
+    optional(j, ptr, "resolution", [&](const json& v, const std::string& p) {
+      const auto r = int2(v, p);
+      c.width = r[0];
+      c.height = r[1];
+    });
+    optional(j, ptr, "samples", [&](const json& v, const std::string& p) { c.samples = integer(v, p); });
     return c;
   }
 
@@ -388,6 +418,35 @@ SceneDef parse_scene(const std::string& text, const std::string& origin) {
   return scene;
 }
 
+void validate_output(const OutputDef& o, const std::string& source) {
+  auto fail = [&](const std::string& field, const std::string& reason) { throw InputError(source, field, reason); };
+  for (size_t i = 0; i < o.formats.size(); ++i) {
+    const std::string p = "/output/formats/" + std::to_string(i);
+    bool known = false;
+    for (auto f : kOutputFormats) known = known || o.formats[i] == f;
+    if (!known) fail(p, "unknown format '" + o.formats[i] + "' (expected obj, ply, pc2 or glb)");
+    for (size_t k = 0; k < i; ++k)
+      if (o.formats[k] == o.formats[i]) fail(p, "format '" + o.formats[i] + "' is listed twice");
+  }
+  const CameraDef& c = o.camera;
+  if (c.position) {
+    for (float x : *c.position)
+      if (!std::isfinite(x)) fail("/output/camera/position", "must be finite (got " + num_list(*c.position) + ")");
+  }
+  if (c.target) {
+    for (float x : *c.target)
+      if (!std::isfinite(x)) fail("/output/camera/target", "must be finite (got " + num_list(*c.target) + ")");
+  }
+  if (c.position && c.target && *c.position == *c.target)
+    fail("/output/camera/target", "must differ from the camera position");
+  if (!(c.fov > 0 && c.fov < 180)) fail("/output/camera/fov", "must be between 0 and 180 degrees (got " + num(c.fov) + ")");
+  if (c.width < 1 || c.height < 1 || c.width > 16384 || c.height > 16384)
+    fail("/output/camera/resolution", "both must be between 1 and 16384 pixels (got " +
+                                          num_list(std::array<int, 2>{c.width, c.height}) + ")");
+  if (c.samples < 1 || c.samples > 1024)
+    fail("/output/camera/samples", "must be between 1 and 1024 (got " + std::to_string(c.samples) + ")");
+}
+
 void validate_scene(const SceneDef& s) {
   auto fail = [&](const std::string& field, const std::string& reason) { throw InputError(s.source, field, reason); };
   auto positive = [&](double v, const std::string& field) {
@@ -492,6 +551,8 @@ void validate_scene(const SceneDef& s) {
                                panel.name + "' (vertices 0 to " + std::to_string(count - 1) + ")");
     }
   }
+
+  validate_output(s.output, s.source);
 
   for (size_t i = 0; i < s.obstacles.size(); ++i) {
     const ObstacleDef& od = s.obstacles[i];
