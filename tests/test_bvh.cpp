@@ -183,11 +183,21 @@ StagedRun run_stages(const ClothScene& cs, const std::vector<Vec3>& x0, Collider
   std::vector<RawHit> hits(n), other(n);
   std::vector<Contact> contacts(n);
   StagedRun r;
-  auto cast_and_check = [&](int step) {
-    collider.cast(rays.data(), n, hits.data());
+  const uint32_t ne = cs.model.num_edges();
+  std::vector<Ray> edge_rays(ne);
+  std::vector<RawHit> edge_hits(ne), edge_other(ne);
+  std::vector<uint32_t> frozen(n, 0u);
+  auto cast_and_check = [&](int step, bool edges = false) {
+    if (edges)
+      collider.cast_cloth(edge_rays.data(), ne, edge_hits.data());
+    else
+      collider.cast(rays.data(), n, hits.data());
     if (!check) return;
-    check->cast(rays.data(), n, other.data());
-    const Comparison c = compare(rays, hits, other);
+    if (edges)
+      check->cast_cloth(edge_rays.data(), ne, edge_other.data());
+    else
+      check->cast(rays.data(), n, other.data());
+    const Comparison c = edges ? compare(edge_rays, edge_hits, edge_other) : compare(rays, hits, other);
     r.checked_rays += c.rays;
     if (c.mismatches && r.mismatches == 0) r.first_mismatch = "step " + std::to_string(step) + ", " + c.first;
     r.mismatches += c.mismatches;
@@ -213,6 +223,9 @@ StagedRun run_stages(const ClothScene& cs, const std::vector<Vec3>& x0, Collider
     s.hits = hits.data();
     s.contacts = contacts.data();
     s.contact_normal = normal.data();
+    s.edge_rays = edge_rays.data();
+    s.edge_hits = edge_hits.data();
+    s.frozen = frozen.data();
     for (Collider* c : {&collider, check})
       if (c) c->update_cloth(x.data());
     for (uint32_t i = 0; i < n; ++i) stage_integrate(s, i), stage_velocity_ray(s, i);
@@ -223,6 +236,20 @@ StagedRun run_stages(const ClothScene& cs, const std::vector<Vec3>& x0, Collider
     for (uint32_t i = 0; i < n; ++i) {
       EXPECT_TRUE(stage_respond_contact(s, i)) << "step " << k << " vertex " << i;
       count += contacts[i].w >= 0.0f;
+    }
+    cast_and_check(k);
+    for (uint32_t i = 0; i < n; ++i) stage_certify(s, i);
+    // The crossing guard, as CpuBackend::guard runs it.
+    for (int round = 0; cs.scene.collision.cloth_cloth; ++round) {
+      for (Collider* c : {&collider, check})
+        if (c) c->update_cloth(xn.data());
+      for (uint32_t e = 0; e < ne; ++e) stage_edge_ray(s, e);
+      cast_and_check(k, true);
+      bool any = false;
+      for (uint32_t e = 0; e < ne; ++e) any = stage_edge_mark(s, e) || any;
+      if (!any) break;
+      if (round + 1 == 32) std::fill(frozen.begin(), frozen.end(), 1u);
+      for (uint32_t i = 0; i < n; ++i) stage_freeze(s, i);
     }
     r.hits.push_back(count);
     if (count > 0 && r.first_hit_step < 0) {

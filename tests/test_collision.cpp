@@ -64,6 +64,36 @@ TEST(Collision, ClothDroppedOnClothLyingOnBoxStaysOnTop) {
   EXPECT_GT(over, 100u);
 }
 
+// A cloth falling onto the top edge of a pinned cloth wall seen edge-on: few of its vertex rays can
+// hit a surface of zero width, so only the crossing guard's edge rays stop its edges from being
+// cut through by the wall's top edge. The guard must act, and no edge may end up crossing.
+TEST(Collision, ClothFallingOnAnEdgeOnClothWallIsNotCutThrough) {
+  SceneDef s = test::panel_scene(21, 0.6f, 0.42f, 1.0f);
+  s.panels[0].transform.position = {0.0f, 0.42f, 0.0137f};  // no vertex row in the wall's plane
+  PanelDef wall = s.panels[0];
+  wall.name = "wall";
+  wall.width = 0.8f;
+  wall.height = 0.3f;
+  wall.resolution_u = 17;
+  wall.resolution_v = 7;
+  wall.transform.position = {0, 0.25f, 0};
+  wall.transform.rotation = {90, 0, 0};  // vertical, in the xy-plane, top edge at y = 0.4
+  s.panels.push_back(wall);
+  PinDef pin;
+  pin.panel = "wall";
+  pin.range = std::array<int, 2>{0, 17 * 7 - 1};
+  s.pins.push_back(pin);
+  Simulator sim(s);
+  for (int k = 0; k < 6; ++k) {
+    sim.step(125);
+    ASSERT_EQ(inspect(sim).cloth_edge_crossings, 0u) << "after " << sim.steps() << " steps";
+  }
+  EXPECT_GT(sim.frozen_total(), 0u) << "the guard never acted: the test no longer exercises it";
+  // The cloth hangs over the wall's top edge instead of falling past it.
+  const Vec3 centre = sim.positions()[10 * 21 + 10];
+  EXPECT_GT(centre.y, 0.4f - 0.02f);
+}
+
 TEST(Collision, FastVertexDoesNotTunnelThroughThinPlane) {
   SceneDef s = test::panel_scene(3, 0.02f, 1.0f);
   s.gravity = {0, -4000.0f, 0};  // ~280 m/s at the plane: 0.11 m per step, 22x the tolerance

@@ -53,6 +53,9 @@ class Simulator {
   double time() const { return double(steps_) * scene_.time.dt; }
   // Vertices with an entry in the collision buffer (W >= 0) in the last step.
   uint64_t last_hits() const { return last_hits_; }
+  // Vertices the crossing guard put back to their start-of-step position, summed over all steps:
+  // each is a place where the response alone would have let cloth pass through cloth.
+  uint64_t frozen_total() const { return frozen_total_; }
   const StageTimes& stage_times() const { return times_; }
 
  private:
@@ -62,7 +65,7 @@ class Simulator {
   std::unique_ptr<Backend> backend_;
   std::vector<Vec3> x_, v_;
   bool synced_ = true;
-  uint64_t steps_ = 0, last_hits_ = 0;
+  uint64_t steps_ = 0, last_hits_ = 0, frozen_total_ = 0;
   StageTimes times_;
 };
 

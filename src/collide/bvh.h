@@ -254,7 +254,10 @@ struct AcceptAll {
 struct SkipOwnTriangles {
   const uint32_t* tri_alias;
   uint32_t ray_alias;
-  RC_HD bool operator()(uint32_t prim) const { return !is_own_triangle(tri_alias, prim, ray_alias); }
+  uint32_t ray_alias2 = kNoAlias;
+  RC_HD bool operator()(uint32_t prim) const {
+    return !is_own_triangle(tri_alias, prim, ray_alias) && !is_own_triangle(tri_alias, prim, ray_alias2);
+  }
 };
 
 // Counts work for the rebuild measurement; the default does nothing and compiles away.
@@ -341,7 +344,7 @@ RC_HD RawHit trace_collision(const BvhScene& s, const Ray& ray, Stats* stats = n
     Ray r = ray;
     if (h.kind != kHitNone) r.tmax = h.t;
     const RawHit c = trace_nearest(s.cloth, s.cloth_positions, s.cloth_indices, r,
-                                   SkipOwnTriangles{s.tri_alias, ray.vertex}, kHitCloth, stats);
+                                   SkipOwnTriangles{s.tri_alias, ray.vertex, ray.vertex2}, kHitCloth, stats);
     if (c.kind != kHitNone) h = c;
   }
   return h;
@@ -393,6 +396,7 @@ class BvhCollider final : public Collider {
                  bool cast_against_cloth) override;
   void update_cloth(const Vec3* positions) override;
   void cast(const Ray* rays, size_t count, RawHit* hits) override;
+  void cast_cloth(const Ray* rays, size_t count, RawHit* hits) override;
 
   const HostBvh& obstacle_tree() const { return obstacles_; }
   const HostBvh& cloth_tree() const { return cloth_; }

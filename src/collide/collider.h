@@ -8,12 +8,15 @@
 
 namespace raycloth {
 
+inline constexpr uint32_t kNoAlias = 0xFFFFFFFFu;
+
 // One collision ray. tmax <= 0 means "no ray for this vertex".
 struct Ray {
   Vec3 org;
   float tmax = 0;
   Vec3 dir;
   uint32_t vertex = 0;  // alias of the cloth vertex casting it: triangles with that alias are skipped
+  uint32_t vertex2 = kNoAlias;  // a second alias whose triangles are skipped (edge rays)
 };
 
 enum HitKind : uint32_t { kHitNone = 0, kHitObstacle = 1, kHitCloth = 2 };
@@ -38,6 +41,9 @@ class Collider {
   virtual void update_cloth(const Vec3* positions) = 0;
   // Nearest hit per ray; rays with tmax <= 0 get kind = kHitNone.
   virtual void cast(const Ray* rays, size_t count, RawHit* hits) = 0;
+  // The same against the cloth alone (the crossing guard's edge rays); no hits when cloth-cloth
+  // casting is off.
+  virtual void cast_cloth(const Ray* rays, size_t count, RawHit* hits) = 0;
 };
 
 }  // namespace raycloth

@@ -120,4 +120,22 @@ RC_HD bool respond(const Ray& r, const Contact& c, const CollisionParams& p, Vec
   return true;
 }
 
+// The fail-safe for a move that a response produced and no earlier ray covered: cast from x along
+// the move, it stops `thickness` short of the first surface on its way (at x when x is already
+// that close). The velocity relative to that surface shrinks with the move and loses its part into
+// the surface, so that a vertex held in place does not gather speed it never uses. Returns true
+// when it shortened the move.
+RC_HD bool clamp_move(const Ray& r, const Contact& c, const CollisionParams& p, Vec3 x, Vec3& v, Vec3& x_next) {
+  if (c.w < 0.0f) return false;
+  const float len = length(x_next - x);
+  const float keep = fmaxf(0.0f, c.w - p.thickness);
+  if (!(keep < len)) return false;
+  x_next = x + r.dir * keep;
+  Vec3 rel = (v - c.surface_velocity) * (keep / len);
+  const float vn = dot(rel, c.normal);
+  if (vn < 0.0f) rel = rel - c.normal * vn;
+  v = c.surface_velocity + rel;
+  return true;
+}
+
 }  // namespace raycloth

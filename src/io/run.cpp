@@ -93,9 +93,10 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
                             {"response", r.stages.respond * per}};
   nlohmann::json frames = nlohmann::json::array();
   for (const auto& f : r.frames)
-    frames.push_back({{"index", f.index}, {"time", f.time}, {"step", f.step}, {"hits", f.hits},
+    frames.push_back({{"index", f.index}, {"time", f.time}, {"step", f.step}, {"hits", f.hits}, {"frozen", f.frozen},
                       {"kinetic_energy", f.kinetic_energy}, {"steps_per_second", f.steps_per_second}});
   j["frames"] = frames;
+  j["crossing_guard_frozen"] = sim.frozen_total();
   j["final_check"] = {{"vertices_inside_obstacles", r.final_check.vertices_inside_obstacles},
                       {"cloth_edge_crossings", r.final_check.cloth_edge_crossings}};
   if (!r.error.empty()) j["error"] = r.error;
@@ -130,10 +131,13 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
   write_obstacles_obj(opt.out_dir / "obstacles.obj", sim.obstacles(), sim.obstacle_vertices());
   for (auto& s : sinks) s->begin(sim, opt.out_dir);
 
+  uint64_t frozen_seen = 0;
   auto emit = [&](FrameRecord rec) {
     rec.time = sim.time();
     rec.step = sim.steps();
     rec.hits = sim.last_hits();
+    rec.frozen = sim.frozen_total() - frozen_seen;
+    frozen_seen = sim.frozen_total();
     rec.kinetic_energy = kinetic_energy(sim.model(), sim.velocities());
     report.frames.push_back(rec);
     for (auto& s : sinks) s->frame(sim, rec);

@@ -14,6 +14,7 @@ namespace raycloth {
 
 struct StepResult {
   uint64_t hits = 0;           // collision-buffer entries in the last step
+  uint64_t frozen = 0;         // vertices the crossing guard froze, summed over the steps
   int64_t bad_vertex = -1;     // first vertex that blew up, or -1
   uint64_t bad_step = 0;       // step (counted from the start of the run) where it did
 };

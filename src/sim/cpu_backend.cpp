@@ -43,6 +43,9 @@ class CpuBackend final : public Backend {
     hits_.resize(n);
     contacts_.resize(n);
     contact_normal_.assign(n, make_vec3(0, 0, 0));
+    edge_rays_.resize(model_.num_edges());
+    edge_hits_.resize(model_.num_edges());
+    frozen_.assign(n, 0u);
     obstacles_.pose_at(0.0, obstacle_x_, obstacle_v_);
     collider_->set_obstacles(obstacle_x_.data(), obstacle_x_.size(), obstacles_.world.indices.data(),
                              obstacles_.world.num_triangles(), obstacles_.any_moving);
@@ -63,7 +66,9 @@ class CpuBackend final : public Backend {
         obstacles_.pose_at(double(step_index) * scene_.time.dt, obstacle_x_, obstacle_v_);
         collider_->update_obstacles(obstacle_x_.data());
       }
-      collider_->update_cloth(x_.data());
+      // The crossing guard leaves the cloth's structure fitted to x_next, which is now x.
+      if (!cloth_at_x_) collider_->update_cloth(x_.data());
+      cloth_at_x_ = false;
       times.update += seconds_since(t);
 
       for_each_vertex(s.model.num_vertices, [&](uint32_t i) {
@@ -96,6 +101,13 @@ class CpuBackend final : public Backend {
           [](uint64_t a, uint64_t b) { return a + b; });
       times.respond += seconds_since(t);
 
+      collider_->cast(rays_.data(), rays_.size(), hits_.data());
+      times.cast += seconds_since(t);
+      for_each_vertex(s.model.num_vertices, [&](uint32_t i) { stage_certify(s, i); });
+      times.respond += seconds_since(t);
+
+      if (scene_.collision.cloth_cloth) result.frozen += guard(s, times, t);
+
       std::swap(x_, x_next_);
       std::swap(v_, v_next_);
       if (bad.load() >= 0) {
@@ -105,6 +117,41 @@ class CpuBackend final : public Backend {
       }
     }
     return result;
+  }
+
+  // The crossing guard (sim/stages.h): edge rays at x_next until no edge crosses the cloth. Each
+  // round freezes more vertices at their crossing-free x, so it ends; past kMaxGuardRounds every
+  // vertex is frozen. Returns the number of vertices frozen.
+  uint64_t guard(const StepView& s, StageTimes& times, Clock::time_point& t) {
+    constexpr int kMaxGuardRounds = 32;
+    const uint32_t ne = s.model.num_edges;
+    uint64_t frozen = 0;
+    for (int round = 0;; ++round) {
+      collider_->update_cloth(x_next_.data());
+      times.update += seconds_since(t);
+      tbb::parallel_for(tbb::blocked_range<uint32_t>(0, ne, 1024), [&](const tbb::blocked_range<uint32_t>& r) {
+        for (uint32_t e = r.begin(); e != r.end(); ++e) stage_edge_ray(s, e);
+      });
+      collider_->cast_cloth(edge_rays_.data(), ne, edge_hits_.data());
+      times.cast += seconds_since(t);
+      // Marks are written serially: several edges may mark one vertex.
+      bool any = false;
+      for (uint32_t e = 0; e < ne; ++e) any = stage_edge_mark(s, e) || any;
+      if (!any) {
+        times.respond += seconds_since(t);
+        cloth_at_x_ = true;
+        return frozen;
+      }
+      if (round + 1 == kMaxGuardRounds) std::fill(frozen_.begin(), frozen_.end(), 1u);
+      frozen += tbb::parallel_reduce(
+          tbb::blocked_range<uint32_t>(0, s.model.num_vertices, 512), uint64_t(0),
+          [&](const tbb::blocked_range<uint32_t>& r, uint64_t count) {
+            for (uint32_t i = r.begin(); i != r.end(); ++i) count += stage_freeze(s, i) ? 1 : 0;
+            return count;
+          },
+          [](uint64_t a, uint64_t b) { return a + b; });
+      times.respond += seconds_since(t);
+    }
   }
 
   void download(std::vector<Vec3>& x, std::vector<Vec3>& v) override {
@@ -130,6 +177,9 @@ class CpuBackend final : public Backend {
     s.hits = hits_.data();
     s.contacts = contacts_.data();
     s.contact_normal = contact_normal_.data();
+    s.edge_rays = edge_rays_.data();
+    s.edge_hits = edge_hits_.data();
+    s.frozen = frozen_.data();
     return s;
   }
 
@@ -142,6 +192,10 @@ class CpuBackend final : public Backend {
   std::vector<Ray> rays_;
   std::vector<RawHit> hits_;
   std::vector<Contact> contacts_;
+  std::vector<Ray> edge_rays_;
+  std::vector<RawHit> edge_hits_;
+  std::vector<uint32_t> frozen_;
+  bool cloth_at_x_ = false;
 };
 
 }  // namespace

@@ -61,6 +61,8 @@ ModelView ClothModel::view() const {
   v.alias = alias.data();
   v.triangles = collision_triangles.data();
   v.tri_alias = tri_alias.data();
+  v.edges = edges.data();
+  v.num_edges = num_edges();
   return v;
 }
 
@@ -193,6 +195,19 @@ ClothModel build_cloth_model(const SceneDef& s) {
   for (uint32_t i = 0; i < m.num_vertices(); ++i) m.alias[i] = find_root(parent, i);
   m.tri_alias.resize(m.collision_triangles.size());
   for (size_t i = 0; i < m.collision_triangles.size(); ++i) m.tri_alias[i] = m.alias[m.collision_triangles[i]];
+  {
+    std::vector<std::pair<uint32_t, uint32_t>> e;
+    e.reserve(m.triangles.size());
+    for (size_t t = 0; t < m.triangles.size(); t += 3)
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t a = m.triangles[t + k], b = m.triangles[t + (k + 1) % 3];
+        e.emplace_back(std::min(a, b), std::max(a, b));
+      }
+    std::sort(e.begin(), e.end());
+    e.erase(std::unique(e.begin(), e.end()), e.end());
+    m.edges.reserve(2 * e.size());
+    for (const auto& [a, b] : e) m.edges.insert(m.edges.end(), {a, b});
+  }
 
   // Pins.
   for (size_t pi = 0; pi < s.pins.size(); ++pi) {

@@ -40,6 +40,8 @@ struct ModelView {
   const uint32_t* alias = nullptr;       // vertices joined by a seam share one alias
   const uint32_t* triangles = nullptr;   // 3 per collision triangle (cloth, then seam strips)
   const uint32_t* tri_alias = nullptr;   // alias of each collision-triangle corner
+  const uint32_t* edges = nullptr;       // 2 per edge of the cloth surface
+  uint32_t num_edges = 0;
 };
 
 struct ClothModel {
@@ -55,10 +57,14 @@ struct ClothModel {
   // What the rays see: the cloth triangles followed by thin strips across each seam, so that a
   // vertex cannot slip through the slit between two seamed panels; and their corners' aliases.
   std::vector<uint32_t> collision_triangles, tri_alias;
+  // The edges of the cloth surface (`triangles`), each once, smaller vertex first: the crossing
+  // guard casts a ray along each of them.
+  std::vector<uint32_t> edges;
 
   uint32_t num_vertices() const { return uint32_t(initial_positions.size()); }
   uint32_t num_triangles() const { return uint32_t(triangles.size() / 3); }
   uint32_t num_collision_triangles() const { return uint32_t(collision_triangles.size() / 3); }
+  uint32_t num_edges() const { return uint32_t(edges.size() / 2); }
   ModelView view() const;
   // Smallest free-vertex mass and largest spring stiffness: the paper's T0 = pi sqrt(m/K).
   float min_mass() const;

@@ -55,6 +55,7 @@ void Simulator::step(int n) {
   const StepResult r = backend_->step(n, steps_, times_);
   synced_ = false;
   last_hits_ = r.hits;
+  frozen_total_ += r.frozen;
   if (r.bad_vertex >= 0) {
     steps_ = r.bad_step + 1;
     const std::vector<Vec3>& x = positions();

@@ -25,14 +25,22 @@ struct ClothFilterData {
   const uint32_t* tri_alias = nullptr;
 };
 
+// rtcIntersect1's context, carrying the ray's second alias (edge rays; kNoAlias otherwise).
+struct CastContext {
+  RTCIntersectContext base;
+  uint32_t alias2 = kNoAlias;
+};
+
 // Skips the ray's own triangles (shared rule); the ray id carries its vertex alias.
 void cloth_filter(const RTCFilterFunctionNArguments* args) {
   const auto* data = static_cast<const ClothFilterData*>(args->geometryUserPtr);
+  const uint32_t alias2 = reinterpret_cast<const CastContext*>(args->context)->alias2;
   for (unsigned k = 0; k < args->N; ++k) {
     if (args->valid[k] != -1) continue;
     const uint32_t prim = RTCHitN_primID(args->hit, args->N, k);
     const uint32_t alias = RTCRayN_id(args->ray, args->N, k);
-    if (is_own_triangle(data->tri_alias, prim, alias)) args->valid[k] = 0;
+    if (is_own_triangle(data->tri_alias, prim, alias) || is_own_triangle(data->tri_alias, prim, alias2))
+      args->valid[k] = 0;
   }
 }
 
@@ -120,12 +128,16 @@ class EmbreeCollider final : public Collider {
     built_ = true;
   }
 
-  void cast(const Ray* rays, size_t count, RawHit* hits) override {
-    RTCScene obstacles = obstacles_;
+  void cast(const Ray* rays, size_t count, RawHit* hits) override { cast_into(rays, count, hits, obstacles_); }
+  void cast_cloth(const Ray* rays, size_t count, RawHit* hits) override { cast_into(rays, count, hits, nullptr); }
+
+ private:
+  void cast_into(const Ray* rays, size_t count, RawHit* hits, RTCScene obstacles) {
     RTCScene cloth = built_ ? cloth_ : nullptr;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const tbb::blocked_range<size_t>& range) {
-      RTCIntersectContext context;
-      rtcInitIntersectContext(&context);
+      CastContext ctx;
+      rtcInitIntersectContext(&ctx.base);
+      RTCIntersectContext& context = ctx.base;
       for (size_t i = range.begin(); i != range.end(); ++i) {
         const Ray& r = rays[i];
         RawHit h;
@@ -138,6 +150,7 @@ class EmbreeCollider final : public Collider {
           rh.ray.time = 0.0f;
           rh.ray.mask = 0xFFFFFFFFu;
           rh.ray.id = r.vertex;
+          ctx.alias2 = r.vertex2;
           rh.ray.flags = 0;
           rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
           if (obstacles) {
@@ -155,7 +168,6 @@ class EmbreeCollider final : public Collider {
     });
   }
 
- private:
   RTCDevice device_ = nullptr;
   RTCScene obstacles_ = nullptr, cloth_ = nullptr;
   RTCGeometry obstacle_geom_ = nullptr, cloth_geom_ = nullptr;
