@@ -54,13 +54,22 @@ std::shared_ptr<FrameSink> format_sink(const std::string& format, bool moving, s
     outputs.push_back(fmt::format("frames/cloth_*.{}", ext));
     if (moving) outputs.push_back(fmt::format("frames/obstacles_*.{}", ext));
   };
-  if (format == "obj") return frames("obj"), std::make_shared<ObjFrames>();
-  if (format == "ply") return frames("ply"), std::make_shared<PlyFrames>();
+  if (format == "obj") {
+    frames("obj");
+    return std::make_shared<ObjFrames>();
+  }
+  if (format == "ply") {
+    frames("ply");
+    return std::make_shared<PlyFrames>();
+  }
   if (format == "pc2") {
     outputs.insert(outputs.end(), {"cloth.pc2", "cloth_rest.obj"});
     return std::make_shared<Pc2Sink>();
   }
-  if (format == "glb") return outputs.push_back("cloth.glb"), std::make_shared<GlbSink>();
+  if (format == "glb") {
+    outputs.push_back("cloth.glb");
+    return std::make_shared<GlbSink>();
+  }
   throw std::invalid_argument("unknown output format '" + format + "'");
 }
 
