@@ -91,3 +91,29 @@ TEST(Cli, UnstableTimeStepIsRefusedBeforeAnythingIsWritten) {
   EXPECT_NE(r.err.find("/time/dt: time step 0.01 s is not below the natural period T0"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "out"));
 }
+
+TEST(Cli, FormatOptionWritesTheChosenFormatsOnly) {
+  const fs::path dir = fresh_dir("formats");
+  const Result r = run_cli("run --quiet --duration 0.05 --format ply,pc2,glb --out " + (dir / "out").string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const fs::path out = dir / "out";
+  for (const char* f : {"frames/cloth_0000.ply", "frames/cloth_0002.ply", "cloth.pc2", "cloth_rest.obj", "cloth.glb",
+                        "obstacles.obj", "run.json", "summary.png"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  EXPECT_FALSE(fs::exists(out / "frames" / "cloth_0000.obj"));
+  std::ifstream in(out / "run.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["outputs"], (nlohmann::json{"frames/cloth_*.ply", "cloth.pc2", "cloth_rest.obj", "cloth.glb",
+                                          "obstacles.obj", "run.json", "summary.png"}));
+}
+
+TEST(Cli, BadFormatIsRefusedWithTheSceneFilesReasonBeforeAnythingIsWritten) {
+  const fs::path dir = fresh_dir("bad_format");
+  Result r = run_cli("run --format obj,fbx --out " + (dir / "out").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "raycloth: error: command line: --format: unknown format 'fbx' (expected obj, ply, pc2 or glb)\n");
+  r = run_cli("run --format ply,ply --out " + (dir / "out").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "raycloth: error: command line: --format: format 'ply' is listed twice\n");
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}

@@ -1,4 +1,5 @@
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 #include <tbb/global_control.h>
 
@@ -8,6 +9,7 @@
 
 #include "commands.h"
 #include "io/run.h"
+#include "raycloth/error.h"
 #include "raycloth/scene.h"
 
 namespace raycloth::cli {
@@ -17,6 +19,7 @@ struct RunArgs {
   std::string scene;
   std::string out = "out";
   std::string device = "cpu";
+  std::vector<std::string> formats;
   double duration = 0;
   int threads = 0;
   bool quiet = false;
@@ -32,6 +35,8 @@ Action add_run_command(CLI::App& app) {
   run->add_option("--device", args->device, "cpu, cuda or auto")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}))
       ->capture_default_str();
+  run->add_option("--format", args->formats, "Mesh formats, comma-separated: obj, ply, pc2, glb (overrides the scene; default obj)")
+      ->delimiter(',');
   run->add_option("--duration", args->duration, "Simulated seconds (overrides the scene)");
   run->add_option("--threads", args->threads, "Worker threads (default: all cores)");
   run->add_flag("-q,--quiet", args->quiet, "No progress output");
@@ -48,6 +53,16 @@ Action add_run_command(CLI::App& app) {
       opt.sim.allow_unstable_dt = args->allow_unstable;
       opt.quiet = args->quiet;
       if (args->duration != 0) opt.duration = args->duration;
+      if (run->count("--format") > 0) {
+        OutputDef formats;  // checked alone, as the scene file's output.formats is
+        formats.formats = args->formats;
+        try {
+          validate_output(formats, "command line");
+        } catch (const InputError& e) {
+          throw InputError(e.file(), "--format", e.reason());
+        }
+        opt.formats = args->formats;
+      }
       if (!args->quiet) spdlog::info("scene '{}' on {}, output in {}", scene.name, args->device, args->out);
       const RunReport r = run_scene(scene, opt);
       if (!args->quiet) {
@@ -55,11 +70,11 @@ Action add_run_command(CLI::App& app) {
             "{}: {} steps, {:.3f} s simulated in {:.2f} s: {:.0f} steps/s on {}\n"
             "stages per step: forces+integration {:.3f} ms, update {:.3f} ms, rays {:.3f} ms, response {:.3f} ms\n"
             "final check: {} cloth vertices inside obstacles, {} cloth edges crossing cloth\n"
-            "wrote {}/frames/cloth_*.obj ({} frames), {}/obstacles.obj, {}/run.json\n",
+            "wrote {} frames to {}: {}\n",
             r.scene, r.steps, r.simulated_time, r.wall_time, r.steps_per_second, r.device,
             1e3 * r.stages.integrate / r.steps, 1e3 * r.stages.update / r.steps, 1e3 * r.stages.cast / r.steps,
             1e3 * r.stages.respond / r.steps, r.final_check.vertices_inside_obstacles,
-            r.final_check.cloth_edge_crossings, args->out, r.frames.size(), args->out, args->out);
+            r.final_check.cloth_edge_crossings, r.frames.size(), args->out, fmt::join(r.outputs, ", "));
       }
       return 0;
     });

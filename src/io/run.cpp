@@ -10,7 +10,11 @@
 #include <nlohmann/json.hpp>
 
 #include "io/atomic_file.h"
+#include "io/gltf_writer.h"
 #include "io/obj_writer.h"
+#include "io/pc2_writer.h"
+#include "io/ply_writer.h"
+#include "io/run_summary.h"
 #include "raycloth/error.h"
 #include "sim/model.h"
 
@@ -43,6 +47,31 @@ class ObjFrames final : public FrameSink {
  private:
   fs::path dir_;
 };
+
+// The writer of one mesh format, and the files it writes.
+std::shared_ptr<FrameSink> format_sink(const std::string& format, bool moving, std::vector<std::string>& outputs) {
+  auto frames = [&](const char* ext) {
+    outputs.push_back(fmt::format("frames/cloth_*.{}", ext));
+    if (moving) outputs.push_back(fmt::format("frames/obstacles_*.{}", ext));
+  };
+  if (format == "obj") {
+    frames("obj");
+    return std::make_shared<ObjFrames>();
+  }
+  if (format == "ply") {
+    frames("ply");
+    return std::make_shared<PlyFrames>();
+  }
+  if (format == "pc2") {
+    outputs.insert(outputs.end(), {"cloth.pc2", "cloth_rest.obj"});
+    return std::make_shared<Pc2Sink>();
+  }
+  if (format == "glb") {
+    outputs.push_back("cloth.glb");
+    return std::make_shared<GlbSink>();
+  }
+  throw std::invalid_argument("unknown output format '" + format + "'");
+}
 
 // A bar with an ETA on a terminal, a log line per tenth of the run otherwise.
 class Progress {
@@ -99,6 +128,7 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
   j["crossing_guard_frozen"] = sim.frozen_total();
   j["final_check"] = {{"vertices_inside_obstacles", r.final_check.vertices_inside_obstacles},
                       {"cloth_edge_crossings", r.final_check.cloth_edge_crossings}};
+  j["outputs"] = r.outputs;
   if (!r.error.empty()) j["error"] = r.error;
   return j;
 }
@@ -107,6 +137,10 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
 
 RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
   SceneDef scene = scene_in;
+  if (opt.formats) {
+    scene.output.formats = *opt.formats;
+    validate_output(scene.output, scene.source);
+  }
   if (opt.duration) {
     if (!(*opt.duration > 0)) throw InputError(scene.source, "duration", fmt::format("must be positive (got {:g})", *opt.duration));
     scene.time.duration = *opt.duration;
@@ -121,11 +155,13 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
   fs::create_directories(opt.out_dir / "frames", ec);
   if (ec) throw std::runtime_error(opt.out_dir.string() + ": cannot create the output folder: " + ec.message());
 
-  std::vector<std::shared_ptr<FrameSink>> sinks;
-  if (opt.write_obj) sinks.push_back(std::make_shared<ObjFrames>());
-  sinks.insert(sinks.end(), opt.sinks.begin(), opt.sinks.end());
-
   RunReport report;
+  std::vector<std::shared_ptr<FrameSink>> sinks;
+  for (const std::string& f : scene.output.formats)
+    if (f != "obj" || opt.write_obj) sinks.push_back(format_sink(f, sim.obstacles().any_moving, report.outputs));
+  sinks.insert(sinks.end(), opt.sinks.begin(), opt.sinks.end());
+  report.outputs.insert(report.outputs.end(), {"obstacles.obj", "run.json", "summary.png"});
+
   report.scene = scene.name;
   report.device = sim.device();
   write_obstacles_obj(opt.out_dir / "obstacles.obj", sim.obstacles(), sim.obstacle_vertices());
@@ -150,6 +186,7 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
     report.steps_per_second = report.wall_time > 0 ? double(report.steps) / report.wall_time : 0.0;
     const nlohmann::json j = report_json(report, sim);
     write_file_atomically(opt.out_dir / "run.json", [&](std::ostream& out) { out << j.dump(2) << "\n"; });
+    write_run_summary(opt.out_dir / "summary.png", report);
   };
 
   Progress progress(opt.quiet, num_frames);
@@ -171,6 +208,13 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
     }
   } catch (const SimulationError& e) {
     report.error = e.what();
+    for (auto& s : sinks) {
+      try {
+        s->end(sim);  // the frames so far
+      } catch (const std::exception& sink_error) {
+        spdlog::error("{}", sink_error.what());
+      }
+    }
     write_report();
     throw;
   }

@@ -25,7 +25,8 @@ struct FrameRecord {
 };
 
 // Receives every output frame (frame 0 is the initial state). Writers of further formats and the
-// image renderer plug in here.
+// image renderer plug in here. end() comes after the last frame, and also when the run stops on a
+// blow-up (then the simulator's state is not a frame: use the frames received).
 class FrameSink {
  public:
   virtual ~FrameSink() = default;
@@ -39,8 +40,10 @@ struct RunOptions {
   SimOptions sim;
   std::optional<double> duration;  // overrides the scene's
   bool quiet = false;
-  std::vector<std::shared_ptr<FrameSink>> sinks;  // besides the OBJ frames
-  bool write_obj = true;
+  std::vector<std::shared_ptr<FrameSink>> sinks;  // besides the mesh formats
+  // Mesh formats (kOutputFormats): overrides the scene's output.formats.
+  std::optional<std::vector<std::string>> formats;
+  bool write_obj = true;  // false: no OBJ frames even when the formats name obj
 };
 
 struct RunReport {
@@ -53,11 +56,13 @@ struct RunReport {
   StageTimes stages;
   std::vector<FrameRecord> frames;
   PenetrationReport final_check;
+  std::vector<std::string> outputs;  // files written, relative to the output folder (* for frame numbers)
   std::string error;  // set when the run stopped on a SimulationError
 };
 
 // Throws InputError / SimulationError before anything is written when the scene cannot run; on a
-// blow-up during the run, writes run.json with the error, keeps the frames, and rethrows.
+// blow-up during the run, ends the sinks (cloth.pc2 and cloth.glb hold the frames so far), writes
+// run.json with the error and summary.png, keeps the frames, and rethrows.
 RunReport run_scene(const SceneDef& scene, const RunOptions& options);
 
 std::string frame_name(const std::string& prefix, int index, const std::string& ext);

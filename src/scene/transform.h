@@ -23,5 +23,10 @@ struct Transform {
 };
 
 Transform make_transform(const TransformDef& def);
+// The same rotation as a unit quaternion (x, y, z, w), for formats that store rotations so.
+std::array<double, 4> rotation_quaternion_xyz_degrees(const Float3& deg);
+// Where an obstacle's motion has taken its transform at simulated time t: position += velocity * tm,
+// rotation += angular_velocity * tm, with tm = max(0, t - start); the transform itself without motion.
+TransformDef transform_at(const ObstacleDef& def, double t);
 
 }  // namespace raycloth

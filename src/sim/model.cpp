@@ -278,14 +278,8 @@ void ObstacleSet::pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec
   for (size_t oi = 0; oi < defs.size(); ++oi) {
     if (!defs[oi].motion) continue;
     const MotionDef& mo = *defs[oi].motion;
-    const double tm = std::max(0.0, t - mo.start);
     const bool moving = t >= mo.start;
-    TransformDef td = defs[oi].transform;
-    for (int k = 0; k < 3; ++k) {
-      td.position[k] += float(mo.velocity[k] * tm);
-      td.rotation[k] += float(mo.angular_velocity[k] * tm);
-    }
-    const Transform xf = make_transform(td);
+    const Transform xf = make_transform(transform_at(defs[oi], t));
     const Vec3 omega = to_vec3(mo.angular_velocity) * float(M_PI / 180.0);
     for (size_t i = 0; i < local[oi].vertices.size(); ++i) {
       const size_t gi = first_vertex[oi] + i;
