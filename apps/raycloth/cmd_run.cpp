@@ -6,9 +6,11 @@
 #include <memory>
 #include <optional>
 
+#include "camera_options.h"
 #include "commands.h"
 #include "io/run.h"
 #include "raycloth/scene.h"
+#include "render/image_frames.h"
 
 namespace raycloth::cli {
 
@@ -21,6 +23,9 @@ struct RunArgs {
   int threads = 0;
   bool quiet = false;
   bool allow_unstable = false;
+  bool render = false;
+  bool video = false;
+  CameraArgs camera;
 };
 }  // namespace
 
@@ -36,18 +41,25 @@ Action add_run_command(CLI::App& app) {
   run->add_option("--threads", args->threads, "Worker threads (default: all cores)");
   run->add_flag("-q,--quiet", args->quiet, "No progress output");
   run->add_flag("--allow-unstable-dt", args->allow_unstable, "Run even when dt >= T0 = pi sqrt(m/K)");
+  run->add_flag("--render", args->render, "Ray-trace images/frame_NNNN.png for every frame");
+  run->add_flag("--video", args->video, "Also assemble video.mp4 from the images (needs ffmpeg; implies --render)");
+  add_camera_options(run, args->camera);
   return [run, args] {
     if (!run->parsed()) return 0;
     return guarded([&] {
       std::optional<tbb::global_control> threads;
       if (args->threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(args->threads));
-      const SceneDef scene = args->scene.empty() ? default_scene() : load_scene_file(args->scene);
+      SceneDef scene = args->scene.empty() ? default_scene() : load_scene_file(args->scene);
+      apply_camera_options(args->camera, scene.output);
+      const bool video = args->video || scene.output.video;
+      const bool render = args->render || scene.output.render || video;
       RunOptions opt;
       opt.out_dir = args->out;
       opt.sim.device = args->device;
       opt.sim.allow_unstable_dt = args->allow_unstable;
       opt.quiet = args->quiet;
       if (args->duration != 0) opt.duration = args->duration;
+      if (render) opt.sinks.push_back(std::make_shared<ImageFrames>(scene.output.camera));
       if (!args->quiet) spdlog::info("scene '{}' on {}, output in {}", scene.name, args->device, args->out);
       const RunReport r = run_scene(scene, opt);
       if (!args->quiet) {
@@ -60,7 +72,9 @@ Action add_run_command(CLI::App& app) {
             1e3 * r.stages.integrate / r.steps, 1e3 * r.stages.update / r.steps, 1e3 * r.stages.cast / r.steps,
             1e3 * r.stages.respond / r.steps, r.final_check.vertices_inside_obstacles,
             r.final_check.cloth_edge_crossings, args->out, r.frames.size(), args->out, args->out);
+        if (render) std::cout << fmt::format("wrote {}/images/frame_*.png ({} frames)\n", args->out, r.frames.size());
       }
+      if (video) return assemble_video(args->out, int(r.frames.size()), scene.time.fps, args->quiet);
       return 0;
     });
   };
