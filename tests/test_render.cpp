@@ -304,7 +304,7 @@ TEST(RenderCli, RenderDirWithAMissingFrameNamesTheFile) {
   const CliResult r = cli("render " + out.string() + " --quiet --resolution 16x16 --samples 1", dir);
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(r.err, "raycloth: error: " + (out / "frames" / "cloth_0001.obj").string() +
-                       ": does not exist\n");
+                       ": does not exist (rendering a folder needs the run's OBJ frames, output format obj)\n");
 }
 
 TEST(RenderCli, CameraOptionsAreCheckedLikeTheSceneFile) {

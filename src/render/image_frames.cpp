@@ -26,8 +26,8 @@ struct ObjMesh {
   std::vector<uint32_t> indices, object;  // object: index of each triangle's `o` group
 };
 
-ObjMesh read_obj(const fs::path& path) {
-  if (!fs::exists(path)) throw InputError(path.string(), "", "does not exist");
+ObjMesh read_obj(const fs::path& path, const char* why_needed = "") {
+  if (!fs::exists(path)) throw InputError(path.string(), "", "does not exist" + std::string(why_needed));
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
@@ -123,7 +123,8 @@ OutputFolder read_output_folder(const fs::path& dir) {
 
 RenderScene read_output_frame(const OutputFolder& folder, int index) {
   RenderScene s;
-  ObjMesh cloth = read_obj(folder.dir / "frames" / frame_name("cloth", index, "obj"));
+  ObjMesh cloth = read_obj(folder.dir / "frames" / frame_name("cloth", index, "obj"),
+                           " (rendering a folder needs the run's OBJ frames, output format obj)");
   s.cloth_vertices = std::move(cloth.vertices);
   s.cloth_indices = std::move(cloth.indices);
   s.cloth_panel = std::move(cloth.object);
