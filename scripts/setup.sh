@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # Installs raycloth's dependencies (Debian 12 packages) and builds it in ./build.
 # The CUDA backend is built too when nvcc is found (e.g. /usr/local/cuda/bin/nvcc).
+# ffmpeg is only run by `raycloth run --video` / `raycloth render --video`; it is installed so that
+# the tests take the real video path.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(cmake ninja-build g++ pkg-config libembree-dev libtbb-dev nlohmann-json3-dev libcli11-dev
           libtinyobjloader-dev libspdlog-dev libfmt-dev libstb-dev libtinygltf-dev libgtest-dev
-          libbenchmark-dev)
+          libbenchmark-dev ffmpeg)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

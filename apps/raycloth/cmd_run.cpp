@@ -7,10 +7,12 @@
 #include <memory>
 #include <optional>
 
+#include "camera_options.h"
 #include "commands.h"
 #include "io/run.h"
 #include "raycloth/error.h"
 #include "raycloth/scene.h"
+#include "render/image_frames.h"
 
 namespace raycloth::cli {
 
@@ -24,6 +26,9 @@ struct RunArgs {
   int threads = 0;
   bool quiet = false;
   bool allow_unstable = false;
+  bool render = false;
+  bool video = false;
+  CameraArgs camera;
 };
 }  // namespace
 
@@ -41,12 +46,18 @@ Action add_run_command(CLI::App& app) {
   run->add_option("--threads", args->threads, "Worker threads (default: all cores)");
   run->add_flag("-q,--quiet", args->quiet, "No progress output");
   run->add_flag("--allow-unstable-dt", args->allow_unstable, "Run even when dt >= T0 = pi sqrt(m/K)");
+  run->add_flag("--render", args->render, "Ray-trace images/frame_NNNN.png for every frame");
+  run->add_flag("--video", args->video, "Also assemble video.mp4 from the images (needs ffmpeg; implies --render)");
+  add_camera_options(run, args->camera);
   return [run, args] {
     if (!run->parsed()) return 0;
     return guarded([&] {
       std::optional<tbb::global_control> threads;
       if (args->threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(args->threads));
-      const SceneDef scene = args->scene.empty() ? default_scene() : load_scene_file(args->scene);
+      SceneDef scene = args->scene.empty() ? default_scene() : load_scene_file(args->scene);
+      apply_camera_options(args->camera, scene.output);
+      const bool video = args->video || scene.output.video;
+      const bool render = args->render || scene.output.render || video;
       RunOptions opt;
       opt.out_dir = args->out;
       opt.sim.device = args->device;
@@ -63,6 +74,7 @@ Action add_run_command(CLI::App& app) {
         }
         opt.formats = args->formats;
       }
+      if (render) opt.sinks.push_back(std::make_shared<ImageFrames>(scene.output.camera));
       if (!args->quiet) spdlog::info("scene '{}' on {}, output in {}", scene.name, args->device, args->out);
       const RunReport r = run_scene(scene, opt);
       if (!args->quiet) {
@@ -75,7 +87,9 @@ Action add_run_command(CLI::App& app) {
             1e3 * r.stages.integrate / r.steps, 1e3 * r.stages.update / r.steps, 1e3 * r.stages.cast / r.steps,
             1e3 * r.stages.respond / r.steps, r.final_check.vertices_inside_obstacles,
             r.final_check.cloth_edge_crossings, r.frames.size(), args->out, fmt::join(r.outputs, ", "));
+        if (render) std::cout << fmt::format("wrote {}/images/frame_*.png ({} frames)\n", args->out, r.frames.size());
       }
+      if (video) return assemble_video(args->out, int(r.frames.size()), scene.time.fps, args->quiet);
       return 0;
     });
   };

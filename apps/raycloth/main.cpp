@@ -5,6 +5,7 @@
 
 #include "commands.h"
 #include "raycloth/error.h"
+#include "render/video.h"
 
 namespace raycloth::cli {
 
@@ -23,6 +24,16 @@ int guarded(const std::function<int()>& body) {
   }
 }
 
+int assemble_video(const std::string& out_dir, int frames, double fps, bool quiet) {
+  const VideoResult v = make_video(out_dir, frames, fps);
+  if (!v.written) {
+    std::cerr << "raycloth: warning: " << v.warning << "\n";
+    return 0;
+  }
+  if (!quiet) std::cout << "wrote " << out_dir << "/video.mp4\n";
+  return 0;
+}
+
 }  // namespace raycloth::cli
 
 int main(int argc, char** argv) {
@@ -32,10 +43,12 @@ int main(int argc, char** argv) {
   std::vector<std::pair<CLI::App*, raycloth::cli::Action>> actions;
   raycloth::cli::Action run = raycloth::cli::add_run_command(app);
   raycloth::cli::Action bench = raycloth::cli::add_bench_command(app);
+  raycloth::cli::Action render = raycloth::cli::add_render_command(app);
   CLI11_PARSE(app, argc, argv);
   for (auto* sub : app.get_subcommands()) {
     if (sub->get_name() == "run") return run();
     if (sub->get_name() == "bench") return bench();
+    if (sub->get_name() == "render") return render();
   }
   return 1;
 }

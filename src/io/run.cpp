@@ -110,6 +110,13 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
                   {"seam", m.spring_counts[3]}, {"total", m.springs.size()}};
   j["obstacle_triangles"] = sim.obstacles().world.num_triangles();
   j["dt"] = sim.scene().time.dt;
+  j["fps"] = sim.scene().time.fps;
+  // The scene's camera, so that `raycloth render DIR` shows the run as the run would have.
+  const CameraDef& cam = sim.scene().output.camera;
+  nlohmann::json camera = {{"fov", cam.fov}, {"resolution", {cam.width, cam.height}}, {"samples", cam.samples}};
+  if (cam.position) camera["position"] = *cam.position;
+  if (cam.target) camera["target"] = *cam.target;
+  j["camera"] = camera;
   j["natural_period_T0"] = m.natural_period();
   j["steps"] = r.steps;
   j["simulated_time"] = r.simulated_time;
