@@ -3,7 +3,9 @@
 // step and rebuilt when refitting has degraded it). The kernels of one step are captured into two
 // CUDA graphs, one per direction of the x/x_next double buffer, and Backend::step(n) launches them
 // n times, alternating; the only transfer per call is the small StepControl read back at the end
-// (plus, for scenes with moving obstacles, one upload of the call's obstacle poses). docs/gpu.md.
+// (plus, for scenes with moving obstacles, one upload of the call's obstacle poses). In cloth-cloth
+// scenes each step ends with the crossing guard, a fixed number of rounds inside the graph
+// (kGuardRounds). docs/gpu.md.
 #include <cub/block/block_reduce.cuh>
 
 #include <chrono>
@@ -25,6 +27,13 @@ namespace {
 
 constexpr int kBlock = 256;
 constexpr unsigned long long kNoVertex = ~0ull;
+// Crossing-guard rounds per step. CpuBackend::guard loops until a round finds no edge through the
+// cloth (at most 32 rounds, freezing every vertex in the 32nd). A graph cannot loop on a device
+// result, so the GPU captures a fixed kGuardRounds rounds: once a round is clean the later ones
+// return at once (flags in StepControl), and if the kGuardRounds-th round still finds a crossing it
+// freezes every vertex, so the step still ends crossing-free. The two backends therefore differ
+// only in a step that needs more than kGuardRounds rounds.
+constexpr int kGuardRounds = 4;
 inline unsigned grid_for(uint32_t n) { return (n + kBlock - 1) / kBlock; }
 
 // Device-resident bookkeeping of a step(n) call; read back once at its end.
@@ -37,6 +46,14 @@ struct StepControl {
   unsigned int stopped = 0;  // set after the step that blew up: later steps of the call do nothing
   float cloth_area = 0;        // summed node area of the cloth tree after the last refit
   float cloth_built_area = 0;  // the same right after its last build
+  // Crossing guard (cloth-cloth scenes only).
+  unsigned long long frozen = 0;           // vertices frozen in this call's steps
+  unsigned long long guard_exhausted = 0;  // steps of this call whose last round froze everything
+  unsigned int guard_open = 0;   // this step's guard has not had a clean round yet
+  unsigned int guard_found = 0;  // the current round found an edge through the cloth
+  // 1 while the cloth tree is not known to be fitted to x: the refit at the start of a step runs
+  // only then. A clean guard round leaves the tree fitted to x_next, the next step's x (0).
+  unsigned int cloth_stale = 1;
 };
 
 // Moving obstacle vertices: which world vertex, its local position, which obstacle's pose.
@@ -55,6 +72,10 @@ __global__ void k_begin_call(StepControl* c, unsigned long long first_step) {
   c->call_first = first_step;
   c->bad_vertex = kNoVertex;
   c->stopped = 0;
+  c->frozen = 0;
+  c->guard_exhausted = 0;
+  c->guard_open = 0;
+  c->guard_found = 0;
 }
 
 __global__ void k_pose_obstacles(PoseView p, const StepControl* c) {
@@ -101,6 +122,76 @@ __global__ void k_respond_contact(StepView s, StepControl* c) {
   if (threadIdx.x == 0 && block_hits) atomicAdd(&c->hits, block_hits);
 }
 
+// The third ray's hit: the second response's move stops a thickness short of what it would cross.
+__global__ void k_certify(StepView s, const StepControl* c) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (c->stopped || i >= s.model.num_vertices) return;
+  stage_certify(s, i);
+}
+
+// ---- Crossing guard (CpuBackend::guard), kGuardRounds captured rounds ----------------------------
+// Each round: cloth refit at x_next (only while guard_open), k_edge_ray, k_trace_edges against the
+// cloth alone, k_edge_mark, k_freeze, k_guard_round_end. Every kernel returns at once when the
+// guard is closed (a clean round came earlier in this step, or the step is past a blow-up).
+
+__global__ void k_guard_begin(StepControl* c) {
+  if (c->stopped) return;
+  c->guard_open = 1;
+  c->guard_found = 0;
+}
+
+__global__ void k_edge_ray(StepView s, const StepControl* c) {
+  const uint32_t e = blockIdx.x * blockDim.x + threadIdx.x;
+  if (!c->guard_open || e >= s.model.num_edges) return;
+  stage_edge_ray(s, e);
+}
+
+// `scene` has an empty obstacle tree and the cloth at x_next, as BvhCollider::cast_cloth.
+__global__ void k_trace_edges(BvhScene scene, const Ray* rays, RawHit* hits, uint32_t n, const StepControl* c) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (!c->guard_open || i >= n) return;
+  hits[i] = trace_collision(scene, rays[i]);
+}
+
+// Plain stores of 1u, to `frozen` and to the round's flag: every writer stores the same value.
+__global__ void k_edge_mark(StepView s, StepControl* c) {
+  const uint32_t e = blockIdx.x * blockDim.x + threadIdx.x;
+  if (!c->guard_open || e >= s.model.num_edges) return;
+  if (stage_edge_mark(s, e)) c->guard_found = 1u;
+}
+
+// Puts the marked vertices back to x (every vertex in the last round) and counts them.
+__global__ void k_freeze(StepView s, StepControl* c, bool last_round) {
+  using Reduce = cub::BlockReduce<unsigned long long, kBlock>;
+  __shared__ typename Reduce::TempStorage temp;
+  if (!c->guard_open || !c->guard_found) return;  // uniform: no kernel running now writes them
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  unsigned long long frozen = 0;
+  if (i < s.model.num_vertices) {
+    if (last_round) s.frozen[i] = 1u;
+    frozen = stage_freeze(s, i) ? 1 : 0;
+  }
+  const unsigned long long block_frozen = Reduce(temp).Sum(frozen);
+  if (threadIdx.x == 0 && block_frozen) atomicAdd(&c->frozen, block_frozen);
+}
+
+__global__ void k_guard_round_end(StepControl* c, bool last_round) {
+  if (!c->guard_open) return;
+  if (!c->guard_found) {
+    // Clean: the tree was refit at this x_next, which the freezes left unchanged.
+    c->guard_open = 0;
+    c->cloth_stale = 0;
+    return;
+  }
+  c->guard_found = 0;
+  if (last_round) {
+    // Everything is back at the crossing-free x, but the tree is fitted to the positions before.
+    c->guard_open = 0;
+    c->cloth_stale = 1;
+    ++c->guard_exhausted;
+  }
+}
+
 __global__ void k_finish_step(StepControl* c) {
   if (c->stopped) return;
   if (c->bad_vertex != kNoVertex) {
@@ -112,9 +203,14 @@ __global__ void k_finish_step(StepControl* c) {
 
 __global__ void k_probe() {}
 
-// Events around the stages of one step, for the per-stage profile (RAYCLOTH_CUDA_PROFILE=1).
+// Events around the stages of one step, for the per-stage profile (RAYCLOTH_CUDA_PROFILE=1):
+// e[0] opens the step, and the time from e[k-1] to e[k] goes to the StageTimes field to[k].
+using StageField = double StageTimes::*;
 struct StageEvents {
-  cudaEvent_t e[7] = {};
+  static constexpr int kMax = 10 + 3 * kGuardRounds;
+  cudaEvent_t e[kMax] = {};
+  StageField to[kMax] = {};
+  int count = 0;
 };
 
 class CudaBackend final : public Backend {
@@ -157,11 +253,8 @@ class CudaBackend final : public Backend {
     if (profile_) {
       for (int k = 0; k < n; ++k) {
         enqueue_step((parity_ + k) & 1, &events_);
-        CUDA_CHECK(cudaEventSynchronize(events_.e[6]));
-        times.update += elapsed(events_.e[0], events_.e[1]);
-        times.integrate += elapsed(events_.e[1], events_.e[2]);
-        times.cast += elapsed(events_.e[2], events_.e[3]) + elapsed(events_.e[4], events_.e[5]);
-        times.respond += elapsed(events_.e[3], events_.e[4]) + elapsed(events_.e[5], events_.e[6]);
+        CUDA_CHECK(cudaEventSynchronize(events_.e[events_.count - 1]));
+        for (int j = 1; j < events_.count; ++j) times.*events_.to[j] += elapsed(events_.e[j - 1], events_.e[j]);
       }
     } else {
       CUDA_CHECK(cudaEventRecord(start_, stream_));
@@ -178,6 +271,8 @@ class CudaBackend final : public Backend {
     const uint64_t executed = c.stopped ? c.bad_step - first_step + 1 : uint64_t(n);
     parity_ = (parity_ + int(executed & 1)) & 1;
     result.hits = c.hits;
+    result.frozen = c.frozen;
+    guard_exhausted_ += c.guard_exhausted;
     if (c.stopped) {
       result.bad_vertex = int64_t(c.bad_vertex);
       result.bad_step = c.bad_step;
@@ -231,6 +326,7 @@ class CudaBackend final : public Backend {
     alias_ = DeviceBuffer<uint32_t>(m.alias);
     cloth_indices_ = DeviceBuffer<uint32_t>(m.collision_triangles);  // cloth, then seam strips
     tri_alias_ = DeviceBuffer<uint32_t>(m.tri_alias);
+    edges_ = DeviceBuffer<uint32_t>(m.edges);
 
     const std::vector<Vec3> zero(n, make_vec3(0, 0, 0));
     for (int b = 0; b < 2; ++b) {
@@ -241,6 +337,9 @@ class CudaBackend final : public Backend {
     rays_.resize(n);
     hits_.resize(n);
     contacts_.resize(n);
+    edge_rays_.resize(m.num_edges());
+    edge_hits_.resize(m.num_edges());
+    frozen_ = DeviceBuffer<uint32_t>(std::vector<uint32_t>(n, 0u));
     control_ = DeviceBuffer<StepControl>(std::vector<StepControl>(1));
 
     std::vector<Vec3> ox, ov;
@@ -308,6 +407,8 @@ class CudaBackend final : public Backend {
     s.model.alias = alias_.data();
     s.model.triangles = cloth_indices_.data();
     s.model.tri_alias = tri_alias_.data();
+    s.model.edges = edges_.data();
+    s.model.num_edges = model_.num_edges();
     s.geom.obstacle_vertices = obstacle_x_.data();
     s.geom.obstacle_velocities = obstacles_.any_moving ? obstacle_v_.data() : nullptr;
     s.geom.obstacle_indices = obstacle_indices_.data();
@@ -322,6 +423,9 @@ class CudaBackend final : public Backend {
     s.hits = hits_.data();
     s.contacts = contacts_.data();
     s.contact_normal = contact_normal_.data();
+    s.edge_rays = edge_rays_.data();
+    s.edge_hits = edge_hits_.data();
+    s.frozen = frozen_.data();
     return s;
   }
 
@@ -338,16 +442,20 @@ class CudaBackend final : public Backend {
   }
 
   // One step from buffer `parity` into the other, the same sequence as CpuBackend::step; with
-  // `ev`, events between the stages.
+  // `ev`, events between the stages (each one names the StageTimes field of the span it closes).
   void enqueue_step(int parity, StageEvents* ev) {
     const uint32_t n = model_.num_vertices();
     StepControl* c = control_.data();
     const StepView s = view(parity);
     const BvhScene scene = trace_scene(parity);
-    auto mark = [&](int k) {
-      if (ev) CUDA_CHECK(cudaEventRecord(ev->e[k], stream_));
+    const bool guard = scene_.collision.cloth_cloth && cloth_.num_prims() > 0 && model_.num_edges() > 0;
+    if (ev) ev->count = 0;
+    auto mark = [&](StageField to) {
+      if (!ev) return;
+      ev->to[ev->count] = to;
+      CUDA_CHECK(cudaEventRecord(ev->e[ev->count++], stream_));
     };
-    mark(0);
+    mark(nullptr);
     if (obstacles_.any_moving) {
       PoseView p;
       p.num_vertices = uint32_t(moving_local_.size());
@@ -362,25 +470,74 @@ class CudaBackend final : public Backend {
       CUDA_CHECK_LAUNCH();
       obstacle_tree_.refit(obstacle_x_.data(), obstacle_indices_.data(), stream_);
     }
-    if (cloth_.num_prims() > 0) cloth_.refit(x_[parity].data(), cloth_indices_.data(), stream_);
-    mark(1);
+    // With the guard, a step whose guard ended clean left the tree fitted to this x: the refit
+    // runs only while StepControl::cloth_stale says otherwise (as CpuBackend's cloth_at_x_).
+    if (cloth_.num_prims() > 0) {
+      const unsigned int* stale = guard ? control_field<unsigned int>(offsetof(StepControl, cloth_stale)) : nullptr;
+      cloth_.refit(x_[parity].data(), cloth_indices_.data(), stream_, stale);
+    }
+    mark(&StageTimes::update);
     k_integrate<<<grid_for(n), kBlock, 0, stream_>>>(s, c);
     CUDA_CHECK_LAUNCH();
-    mark(2);
+    mark(&StageTimes::integrate);
     k_trace<<<grid_for(n), kBlock, 0, stream_>>>(scene, rays_.data(), hits_.data(), n, c);
     CUDA_CHECK_LAUNCH();
-    mark(3);
+    mark(&StageTimes::cast);
     k_respond_velocity<<<grid_for(n), kBlock, 0, stream_>>>(s, c);
     CUDA_CHECK_LAUNCH();
-    mark(4);
+    mark(&StageTimes::respond);
     k_trace<<<grid_for(n), kBlock, 0, stream_>>>(scene, rays_.data(), hits_.data(), n, c);
     CUDA_CHECK_LAUNCH();
-    mark(5);
+    mark(&StageTimes::cast);
     k_respond_contact<<<grid_for(n), kBlock, 0, stream_>>>(s, c);
     CUDA_CHECK_LAUNCH();
+    mark(&StageTimes::respond);
+    // Third rays (prepared by stage_respond_contact) against the full scene, then certify.
+    k_trace<<<grid_for(n), kBlock, 0, stream_>>>(scene, rays_.data(), hits_.data(), n, c);
+    CUDA_CHECK_LAUNCH();
+    mark(&StageTimes::cast);
+    k_certify<<<grid_for(n), kBlock, 0, stream_>>>(s, c);
+    CUDA_CHECK_LAUNCH();
+    if (guard) enqueue_guard(parity, s, mark);
+    // After the guard, so that the step that blows up still runs certify and the guard, as on the CPU.
     k_finish_step<<<1, 1, 0, stream_>>>(c);
     CUDA_CHECK_LAUNCH();
-    mark(6);
+    mark(&StageTimes::respond);
+  }
+
+  // The crossing guard without a host round trip: kGuardRounds rounds captured in the graph (see
+  // kGuardRounds for how this differs from CpuBackend::guard's loop).
+  template <class Mark>
+  void enqueue_guard(int parity, const StepView& s, Mark& mark) {
+    const int next = parity ^ 1;
+    const uint32_t n = model_.num_vertices(), ne = model_.num_edges();
+    StepControl* c = control_.data();
+    const unsigned int* open = control_field<unsigned int>(offsetof(StepControl, guard_open));
+    // BvhCollider::cast_cloth: the cloth alone, at x_next.
+    BvhScene cloth_only = trace_scene(next);
+    cloth_only.obstacles = BvhView();
+    cloth_only.obstacle_vertices = nullptr;
+    cloth_only.obstacle_indices = nullptr;
+    k_guard_begin<<<1, 1, 0, stream_>>>(c);
+    CUDA_CHECK_LAUNCH();
+    mark(&StageTimes::respond);
+    for (int round = 0; round < kGuardRounds; ++round) {
+      const bool last = round + 1 == kGuardRounds;
+      cloth_.refit(x_[next].data(), cloth_indices_.data(), stream_, open);
+      mark(&StageTimes::update);
+      k_edge_ray<<<grid_for(ne), kBlock, 0, stream_>>>(s, c);
+      CUDA_CHECK_LAUNCH();
+      k_trace_edges<<<grid_for(ne), kBlock, 0, stream_>>>(cloth_only, edge_rays_.data(), edge_hits_.data(), ne, c);
+      CUDA_CHECK_LAUNCH();
+      mark(&StageTimes::cast);
+      k_edge_mark<<<grid_for(ne), kBlock, 0, stream_>>>(s, c);
+      CUDA_CHECK_LAUNCH();
+      k_freeze<<<grid_for(n), kBlock, 0, stream_>>>(s, c, last);
+      CUDA_CHECK_LAUNCH();
+      k_guard_round_end<<<1, 1, 0, stream_>>>(c, last);
+      CUDA_CHECK_LAUNCH();
+      mark(&StageTimes::respond);
+    }
   }
 
   void capture_graphs() {
@@ -419,13 +576,17 @@ class CudaBackend final : public Backend {
   StepControl* control_host_ = nullptr;  // pinned
   int parity_ = 0;                       // x_[parity_] holds the state at the current time
   uint32_t cloth_rebuilds_ = 0;
+  uint64_t guard_exhausted_ = 0;  // steps whose last guard round still found a crossing (all frozen)
 
   DeviceBuffer<float> inv_mass_, damping_, adj_rest_, adj_k_, adj_kd_;
-  DeviceBuffer<uint32_t> adj_offset_, adj_other_, alias_, cloth_indices_, tri_alias_;
+  DeviceBuffer<uint32_t> adj_offset_, adj_other_, alias_, cloth_indices_, tri_alias_, edges_;
   DeviceBuffer<Vec3> x_[2], v_[2], contact_normal_;
   DeviceBuffer<Ray> rays_;
   DeviceBuffer<RawHit> hits_;
   DeviceBuffer<Contact> contacts_;
+  DeviceBuffer<Ray> edge_rays_;        // crossing guard: one per model edge
+  DeviceBuffer<RawHit> edge_hits_;
+  DeviceBuffer<uint32_t> frozen_;      // crossing guard: per vertex, zero between rounds
   DeviceBuffer<StepControl> control_;
   DeviceBuffer<Vec3> obstacle_x_, obstacle_v_;
   DeviceBuffer<uint32_t> obstacle_indices_;

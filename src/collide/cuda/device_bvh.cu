@@ -40,9 +40,9 @@ __global__ void k_internal_nodes(BvhView b, const uint64_t* sorted_codes) {
   build_internal_node(b, sorted_codes, i);
 }
 
-__global__ void k_refit(BvhView b, const Vec3* vertices, const uint32_t* indices) {
+__global__ void k_refit(BvhView b, const Vec3* vertices, const uint32_t* indices, const unsigned int* only_if) {
   const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
-  if (k >= b.num_prims) return;
+  if (k >= b.num_prims || (only_if && *only_if == 0u)) return;
   refit_from_leaf(b, vertices, indices, k);
 }
 
@@ -108,11 +108,13 @@ void DeviceBvh::build(const Vec3* vertices, const uint32_t* indices, cudaStream_
   if (built_area) area(built_area, stream);
 }
 
-void DeviceBvh::refit(const Vec3* vertices, const uint32_t* indices, cudaStream_t stream) {
+void DeviceBvh::refit(const Vec3* vertices, const uint32_t* indices, cudaStream_t stream,
+                      const unsigned int* only_if) {
   const uint32_t n = num_prims_;
   if (n == 0) return;
   CUDA_CHECK(cudaMemsetAsync(counter_.data(), 0, counter_.bytes(), stream));
-  k_refit<<<grid_for(n), kBlock, 0, stream>>>(view(), vertices, indices);
+  // The counters are zeroed either way: a skipped refit leaves them zero for the next one.
+  k_refit<<<grid_for(n), kBlock, 0, stream>>>(view(), vertices, indices, only_if);
   CUDA_CHECK_LAUNCH();
 }
 

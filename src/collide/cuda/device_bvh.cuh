@@ -19,7 +19,10 @@ class DeviceBvh {
   // Full build over the triangles `indices` (3 per triangle) of `vertices`, both device pointers;
   // writes the summed internal-node area of the fresh tree to `built_area` (device) if given.
   void build(const Vec3* vertices, const uint32_t* indices, cudaStream_t stream, float* built_area = nullptr);
-  void refit(const Vec3* vertices, const uint32_t* indices, cudaStream_t stream);
+  // With `only_if` (a device flag), the refit kernel does nothing while the flag reads 0 when it
+  // runs: a graph can then skip refits that the device decides are not needed.
+  void refit(const Vec3* vertices, const uint32_t* indices, cudaStream_t stream,
+             const unsigned int* only_if = nullptr);
   // Summed half areas of the internal nodes (bvh_area on the host), into `out` (device).
   void area(float* out, cudaStream_t stream) const;
   BvhView view() const;
