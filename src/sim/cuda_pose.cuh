@@ -1,10 +1,9 @@
 // Moving obstacles on the device: the host turns each obstacle's motion at a step's time into a
-// RigidPose with the same make_transform that ObstacleSet::pose_at uses; a kernel applies it per
-// vertex. pose_vertex is the one place that repeats pose_at's per-vertex lines (Transform::apply
-// and the rigid velocity), because transform.h is host-only; tests/test_cuda.cpp pins the two
-// bit for bit on the host.
+// RigidPose with the same transform_at and make_transform that ObstacleSet::pose_at uses; a kernel
+// applies it per vertex. pose_vertex is the one place that repeats pose_at's per-vertex lines
+// (Transform::apply and the rigid velocity), because transform.h is host-only; tests/test_cuda.cpp
+// pins the two bit for bit on the host.
 #pragma once
-#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -34,13 +33,7 @@ RC_HD void pose_vertex(const RigidPose& p, Vec3 local, Vec3& x, Vec3& v) {
 // The pose of a moving obstacle at simulated time t, as ObstacleSet::pose_at computes it.
 inline RigidPose rigid_pose_at(const ObstacleDef& def, double t) {
   const MotionDef& mo = *def.motion;
-  const double tm = std::max(0.0, t - mo.start);
-  TransformDef td = def.transform;
-  for (int k = 0; k < 3; ++k) {
-    td.position[k] += float(mo.velocity[k] * tm);
-    td.rotation[k] += float(mo.angular_velocity[k] * tm);
-  }
-  const Transform xf = make_transform(td);
+  const Transform xf = make_transform(transform_at(def, t));
   RigidPose p;
   p.r0 = xf.rotation.r0;
   p.r1 = xf.rotation.r1;
