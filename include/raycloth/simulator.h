@@ -56,6 +56,10 @@ class Simulator {
   // Vertices the crossing guard put back to their start-of-step position, summed over all steps:
   // each is a place where the response alone would have let cloth pass through cloth.
   uint64_t frozen_total() const { return frozen_total_; }
+  // Crossing-guard rounds (one ray per cloth edge each) summed over all steps, and the most one step
+  // needed; both 0 where the backend does not count them (CUDA runs a fixed number).
+  uint64_t guard_rounds_total() const { return guard_rounds_total_; }
+  uint32_t guard_rounds_max() const { return guard_rounds_max_; }
   const StageTimes& stage_times() const { return times_; }
 
  private:
@@ -65,7 +69,8 @@ class Simulator {
   std::unique_ptr<Backend> backend_;
   std::vector<Vec3> x_, v_;
   bool synced_ = true;
-  uint64_t steps_ = 0, last_hits_ = 0, frozen_total_ = 0;
+  uint64_t steps_ = 0, last_hits_ = 0, frozen_total_ = 0, guard_rounds_total_ = 0;
+  uint32_t guard_rounds_max_ = 0;
   StageTimes times_;
 };
 

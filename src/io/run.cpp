@@ -133,6 +133,9 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
                       {"kinetic_energy", f.kinetic_energy}, {"steps_per_second", f.steps_per_second}});
   j["frames"] = frames;
   j["crossing_guard_frozen"] = sim.frozen_total();
+  if (sim.guard_rounds_total() > 0 && r.steps > 0)
+    j["crossing_guard_rounds"] = {{"per_step", double(sim.guard_rounds_total()) / double(r.steps)},
+                                  {"max", sim.guard_rounds_max()}};
   j["final_check"] = {{"vertices_inside_obstacles", r.final_check.vertices_inside_obstacles},
                       {"cloth_edge_crossings", r.final_check.cloth_edge_crossings}};
   j["outputs"] = r.outputs;

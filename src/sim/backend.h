@@ -15,6 +15,8 @@ namespace raycloth {
 struct StepResult {
   uint64_t hits = 0;           // collision-buffer entries in the last step
   uint64_t frozen = 0;         // vertices the crossing guard froze, summed over the steps
+  uint64_t guard_rounds = 0;   // crossing-guard rounds (edge casts), summed over the steps; 0 = not counted
+  uint32_t guard_rounds_max = 0;  // most rounds one step needed
   int64_t bad_vertex = -1;     // first vertex that blew up, or -1
   uint64_t bad_step = 0;       // step (counted from the start of the run) where it did
 };

@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <utility>
@@ -106,7 +107,7 @@ class CpuBackend final : public Backend {
       for_each_vertex(s.model.num_vertices, [&](uint32_t i) { stage_certify(s, i); });
       times.respond += seconds_since(t);
 
-      if (scene_.collision.cloth_cloth) result.frozen += guard(s, times, t);
+      if (scene_.collision.cloth_cloth) guard(s, times, t, result);
 
       std::swap(x_, x_next_);
       std::swap(v_, v_next_);
@@ -121,12 +122,11 @@ class CpuBackend final : public Backend {
 
   // The crossing guard (sim/stages.h): edge rays at x_next until no edge crosses the cloth. Each
   // round freezes more vertices at their crossing-free x, so it ends; past kMaxGuardRounds every
-  // vertex is frozen. Returns the number of vertices frozen.
-  uint64_t guard(const StepView& s, StageTimes& times, Clock::time_point& t) {
-    constexpr int kMaxGuardRounds = 32;
+  // vertex is frozen. Adds the vertices frozen and the rounds run to `result`.
+  void guard(const StepView& s, StageTimes& times, Clock::time_point& t, StepResult& result) {
+    constexpr uint32_t kMaxGuardRounds = 32;
     const uint32_t ne = s.model.num_edges;
-    uint64_t frozen = 0;
-    for (int round = 0;; ++round) {
+    for (uint32_t round = 0;; ++round) {
       collider_->update_cloth(x_next_.data());
       times.update += seconds_since(t);
       tbb::parallel_for(tbb::blocked_range<uint32_t>(0, ne, 1024), [&](const tbb::blocked_range<uint32_t>& r) {
@@ -140,10 +140,12 @@ class CpuBackend final : public Backend {
       if (!any) {
         times.respond += seconds_since(t);
         cloth_at_x_ = true;
-        return frozen;
+        result.guard_rounds += round + 1;
+        result.guard_rounds_max = std::max(result.guard_rounds_max, round + 1);
+        return;
       }
       if (round + 1 == kMaxGuardRounds) std::fill(frozen_.begin(), frozen_.end(), 1u);
-      frozen += tbb::parallel_reduce(
+      result.frozen += tbb::parallel_reduce(
           tbb::blocked_range<uint32_t>(0, s.model.num_vertices, 512), uint64_t(0),
           [&](const tbb::blocked_range<uint32_t>& r, uint64_t count) {
             for (uint32_t i = r.begin(); i != r.end(); ++i) count += stage_freeze(s, i) ? 1 : 0;

@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+
 #include "raycloth/error.h"
 #include "sim/backend.h"
 #include "sim/model.h"
@@ -56,6 +58,8 @@ void Simulator::step(int n) {
   synced_ = false;
   last_hits_ = r.hits;
   frozen_total_ += r.frozen;
+  guard_rounds_total_ += r.guard_rounds;
+  guard_rounds_max_ = std::max(guard_rounds_max_, r.guard_rounds_max);
   if (r.bad_vertex >= 0) {
     steps_ = r.bad_step + 1;
     const std::vector<Vec3>& x = positions();
