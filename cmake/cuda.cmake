@@ -49,6 +49,6 @@ if(_raycloth_opts)
   set_property(TARGET raycloth PROPERTY COMPILE_OPTIONS "${_raycloth_cxx_opts}")
 endif()
 # Line info for profilers; relaxed constexpr so that std:: constexpr helpers work in kernels.
-target_compile_options(raycloth PRIVATE $<$<COMPILE_LANGUAGE:CUDA>:-lineinfo --expt-relaxed-constexpr>)
+target_compile_options(raycloth PRIVATE $<$<COMPILE_LANGUAGE:CUDA>:-lineinfo --expt-relaxed-constexpr --extended-lambda>)
 
 set(RAYCLOTH_HAS_CUDA ON)

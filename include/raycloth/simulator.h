@@ -24,7 +24,8 @@ struct StageTimes {
   double update = 0;     // acceleration-structure refit
   double cast = 0;       // collision rays
   double respond = 0;    // collision response
-  double total() const { return integrate + update + cast + respond; }
+  double bound = 0;      // displacement bound: proximity queries and the clamp
+  double total() const { return integrate + update + cast + respond + bound; }
 };
 
 class Backend;
@@ -53,13 +54,12 @@ class Simulator {
   double time() const { return double(steps_) * scene_.time.dt; }
   // Vertices with an entry in the collision buffer (W >= 0) in the last step.
   uint64_t last_hits() const { return last_hits_; }
-  // Vertices the crossing guard put back to their start-of-step position, summed over all steps:
-  // each is a place where the response alone would have let cloth pass through cloth.
-  uint64_t frozen_total() const { return frozen_total_; }
-  // Crossing-guard rounds (one ray per cloth edge each) summed over all steps, and the most one step
-  // needed; both 0 where the backend does not count them (CUDA runs a fixed number).
-  uint64_t guard_rounds_total() const { return guard_rounds_total_; }
-  uint32_t guard_rounds_max() const { return guard_rounds_max_; }
+  // Summed over all steps: vertices an obstacle pushed out at t + dt; vertices whose move the
+  // displacement bound shortened (each a place where the response alone would have let cloth meet
+  // cloth); vertices the bound kept from leaving an obstacle completely (cloth on both sides).
+  uint64_t pushed_total() const { return pushed_total_; }
+  uint64_t clamped_total() const { return clamped_total_; }
+  uint64_t conflicts_total() const { return conflicts_total_; }
   const StageTimes& stage_times() const { return times_; }
 
  private:
@@ -69,8 +69,7 @@ class Simulator {
   std::unique_ptr<Backend> backend_;
   std::vector<Vec3> x_, v_;
   bool synced_ = true;
-  uint64_t steps_ = 0, last_hits_ = 0, frozen_total_ = 0, guard_rounds_total_ = 0;
-  uint32_t guard_rounds_max_ = 0;
+  uint64_t steps_ = 0, last_hits_ = 0, pushed_total_ = 0, clamped_total_ = 0, conflicts_total_ = 0;
   StageTimes times_;
 };
 

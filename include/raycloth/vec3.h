@@ -29,8 +29,12 @@ RC_HD Vec3 normalize_or_zero(Vec3 a) {
   float l2 = dot(a, a);
   return l2 > 0.0f ? a * (1.0f / sqrtf(l2)) : make_vec3(0, 0, 0);
 }
-RC_HD Vec3 vmin(Vec3 a, Vec3 b) { return make_vec3(fminf(a.x, b.x), fminf(a.y, b.y), fminf(a.z, b.z)); }
-RC_HD Vec3 vmax(Vec3 a, Vec3 b) { return make_vec3(fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)); }
+// Plain comparisons rather than fminf/fmaxf: the host compiler does not inline those (NaN rules),
+// and boxes are built in the hottest loops.
+RC_HD float min_of(float a, float b) { return b < a ? b : a; }
+RC_HD float max_of(float a, float b) { return a < b ? b : a; }
+RC_HD Vec3 vmin(Vec3 a, Vec3 b) { return make_vec3(min_of(a.x, b.x), min_of(a.y, b.y), min_of(a.z, b.z)); }
+RC_HD Vec3 vmax(Vec3 a, Vec3 b) { return make_vec3(max_of(a.x, b.x), max_of(a.y, b.y), max_of(a.z, b.z)); }
 RC_HD bool is_finite(float f) {
 #if defined(__CUDA_ARCH__)
   return isfinite(f);

@@ -178,14 +178,6 @@ void BvhCollider::cast(const Ray* rays, size_t count, RawHit* hits) {
   });
 }
 
-void BvhCollider::cast_cloth(const Ray* rays, size_t count, RawHit* hits) {
-  BvhScene s = scene();
-  s.obstacles = BvhView();
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i) hits[i] = trace_collision(s, rays[i]);
-  });
-}
-
 std::unique_ptr<Collider> make_bvh_collider() { return std::make_unique<BvhCollider>(); }
 
 }  // namespace raycloth

@@ -396,7 +396,6 @@ class BvhCollider final : public Collider {
                  bool cast_against_cloth) override;
   void update_cloth(const Vec3* positions) override;
   void cast(const Ray* rays, size_t count, RawHit* hits) override;
-  void cast_cloth(const Ray* rays, size_t count, RawHit* hits) override;
 
   const HostBvh& obstacle_tree() const { return obstacles_; }
   const HostBvh& cloth_tree() const { return cloth_; }

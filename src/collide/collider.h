@@ -41,9 +41,6 @@ class Collider {
   virtual void update_cloth(const Vec3* positions) = 0;
   // Nearest hit per ray; rays with tmax <= 0 get kind = kHitNone.
   virtual void cast(const Ray* rays, size_t count, RawHit* hits) = 0;
-  // The same against the cloth alone (the crossing guard's edge rays); no hits when cloth-cloth
-  // casting is off.
-  virtual void cast_cloth(const Ray* rays, size_t count, RawHit* hits) = 0;
 };
 
 }  // namespace raycloth

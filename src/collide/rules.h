@@ -15,6 +15,7 @@ struct Contact {
   Vec3 normal;
   float w = -1.0f;
   Vec3 surface_velocity;
+  uint32_t kind = kHitNone;  // what was hit: the cloth (at t) or an obstacle (already at t + dt)
 };
 
 struct CollisionParams {
@@ -95,7 +96,22 @@ RC_HD Contact make_contact(const Ray& r, const RawHit& h, const CollisionGeometr
     }
   }
   c.w = h.t;
+  c.kind = h.kind;
   return c;
+}
+
+// The velocity after a contact with a surface of outward normal n moving at u: the part of the
+// relative velocity into the surface is removed, and Coulomb friction takes up to `friction` times
+// that much off the tangential part.
+RC_HD Vec3 contact_velocity(Vec3 v, Vec3 n, Vec3 u, float friction) {
+  const Vec3 rel = v - u;
+  const float vn = dot(rel, n);
+  if (!(vn < 0.0f)) return v;
+  Vec3 vt = rel - n * vn;
+  const float vt_len = length(vt);
+  const float drop = friction * (-vn);
+  vt = vt_len > drop ? vt * (1.0f - drop / vt_len) : make_vec3(0, 0, 0);
+  return u + vt;
 }
 
 // The response: keep the vertex at least `thickness` on the normal's side of the surface plane at
@@ -104,37 +120,13 @@ RC_HD Contact make_contact(const Ray& r, const RawHit& h, const CollisionGeometr
 RC_HD bool respond(const Ray& r, const Contact& c, const CollisionParams& p, Vec3& v, Vec3& x_next) {
   if (c.w < 0.0f) return false;
   const Vec3 n = c.normal;
-  const Vec3 surface = r.org + r.dir * c.w + c.surface_velocity * p.dt;
+  // Cloth was hit where it is at t and moves on during the step; obstacles are cast at t + dt.
+  Vec3 surface = r.org + r.dir * c.w;
+  if (c.kind == kHitCloth) surface += c.surface_velocity * p.dt;
   const float s = dot(x_next - surface, n);
   if (s >= p.thickness) return false;
   x_next += n * (p.thickness - s);
-  const Vec3 rel = v - c.surface_velocity;
-  const float vn = dot(rel, n);
-  if (vn < 0.0f) {
-    Vec3 vt = rel - n * vn;
-    const float vt_len = length(vt);
-    const float drop = p.friction * (-vn);
-    vt = vt_len > drop ? vt * (1.0f - drop / vt_len) : make_vec3(0, 0, 0);
-    v = c.surface_velocity + vt;
-  }
-  return true;
-}
-
-// The fail-safe for a move that a response produced and no earlier ray covered: cast from x along
-// the move, it stops `thickness` short of the first surface on its way (at x when x is already
-// that close). The velocity relative to that surface shrinks with the move and loses its part into
-// the surface, so that a vertex held in place does not gather speed it never uses. Returns true
-// when it shortened the move.
-RC_HD bool clamp_move(const Ray& r, const Contact& c, const CollisionParams& p, Vec3 x, Vec3& v, Vec3& x_next) {
-  if (c.w < 0.0f) return false;
-  const float len = length(x_next - x);
-  const float keep = fmaxf(0.0f, c.w - p.thickness);
-  if (!(keep < len)) return false;
-  x_next = x + r.dir * keep;
-  Vec3 rel = (v - c.surface_velocity) * (keep / len);
-  const float vn = dot(rel, c.normal);
-  if (vn < 0.0f) rel = rel - c.normal * vn;
-  v = c.surface_velocity + rel;
+  v = contact_velocity(v, n, c.surface_velocity, p.friction);
   return true;
 }
 

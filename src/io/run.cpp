@@ -126,16 +126,16 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
   j["stage_ms_per_step"] = {{"forces_and_integration", r.stages.integrate * per},
                             {"acceleration_structure_update", r.stages.update * per},
                             {"ray_casting", r.stages.cast * per},
-                            {"response", r.stages.respond * per}};
+                            {"response", r.stages.respond * per},
+                            {"displacement_bound", r.stages.bound * per}};
   nlohmann::json frames = nlohmann::json::array();
   for (const auto& f : r.frames)
-    frames.push_back({{"index", f.index}, {"time", f.time}, {"step", f.step}, {"hits", f.hits}, {"frozen", f.frozen},
+    frames.push_back({{"index", f.index}, {"time", f.time}, {"step", f.step}, {"hits", f.hits}, {"clamped", f.clamped}, {"pushed", f.pushed},
                       {"kinetic_energy", f.kinetic_energy}, {"steps_per_second", f.steps_per_second}});
   j["frames"] = frames;
-  j["crossing_guard_frozen"] = sim.frozen_total();
-  if (sim.guard_rounds_total() > 0 && r.steps > 0)
-    j["crossing_guard_rounds"] = {{"per_step", double(sim.guard_rounds_total()) / double(r.steps)},
-                                  {"max", sim.guard_rounds_max()}};
+  j["contact"] = {{"pushed_by_obstacles", sim.pushed_total()},
+                  {"clamped_by_bound", sim.clamped_total()},
+                  {"obstacle_conflicts", sim.conflicts_total()}};
   j["final_check"] = {{"vertices_inside_obstacles", r.final_check.vertices_inside_obstacles},
                       {"cloth_edge_crossings", r.final_check.cloth_edge_crossings}};
   j["outputs"] = r.outputs;
@@ -177,13 +177,15 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
   write_obstacles_obj(opt.out_dir / "obstacles.obj", sim.obstacles(), sim.obstacle_vertices());
   for (auto& s : sinks) s->begin(sim, opt.out_dir);
 
-  uint64_t frozen_seen = 0;
+  uint64_t clamped_seen = 0, pushed_seen = 0;
   auto emit = [&](FrameRecord rec) {
     rec.time = sim.time();
     rec.step = sim.steps();
     rec.hits = sim.last_hits();
-    rec.frozen = sim.frozen_total() - frozen_seen;
-    frozen_seen = sim.frozen_total();
+    rec.clamped = sim.clamped_total() - clamped_seen;
+    rec.pushed = sim.pushed_total() - pushed_seen;
+    clamped_seen = sim.clamped_total();
+    pushed_seen = sim.pushed_total();
     rec.kinetic_energy = kinetic_energy(sim.model(), sim.velocities());
     report.frames.push_back(rec);
     for (auto& s : sinks) s->frame(sim, rec);

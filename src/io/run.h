@@ -19,7 +19,8 @@ struct FrameRecord {
   double time = 0;
   uint64_t step = 0;
   uint64_t hits = 0;            // collision-buffer entries in the frame's last step
-  uint64_t frozen = 0;          // vertices frozen by the crossing guard since the previous frame
+  uint64_t clamped = 0;         // vertex-steps the displacement bound shortened since the previous frame
+  uint64_t pushed = 0;          // vertex-steps an obstacle pushed out since the previous frame
   double kinetic_energy = 0;    // J
   double steps_per_second = 0;  // wall-clock rate over the frame's steps
 };

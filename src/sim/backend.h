@@ -8,15 +8,17 @@
 
 #include "raycloth/simulator.h"
 #include "sim/model.h"
+#include "collide/collider.h"
 #include "sim/stages.h"
 
 namespace raycloth {
 
+// What a batch of steps did, summed over its steps (see StepCounters in sim/stages.h).
 struct StepResult {
   uint64_t hits = 0;           // collision-buffer entries in the last step
-  uint64_t frozen = 0;         // vertices the crossing guard froze, summed over the steps
-  uint64_t guard_rounds = 0;   // crossing-guard rounds (edge casts), summed over the steps; 0 = not counted
-  uint32_t guard_rounds_max = 0;  // most rounds one step needed
+  uint64_t pushed = 0;         // vertex-steps an obstacle at t + dt pushed out
+  uint64_t clamped = 0;        // vertex-steps whose move the displacement bound shortened
+  uint64_t conflicts = 0;      // vertex-steps the bound kept from leaving an obstacle completely
   int64_t bad_vertex = -1;     // first vertex that blew up, or -1
   uint64_t bad_step = 0;       // step (counted from the start of the run) where it did
 };
@@ -49,6 +51,8 @@ inline StepView step_view_for(const SceneDef& scene) {
 }
 
 std::unique_ptr<Backend> make_cpu_backend(const BackendInput& in);
+// The CPU backend casting with another acceleration structure (tests compare Embree and the BVH).
+std::unique_ptr<Backend> make_cpu_backend(const BackendInput& in, std::unique_ptr<Collider> collider);
 // Defined by the CUDA backend when it is built; otherwise throws SimulationError.
 std::unique_ptr<Backend> make_cuda_backend(const BackendInput& in);
 // True when the CUDA backend is built and a GPU is usable; otherwise `why` says what is missing.

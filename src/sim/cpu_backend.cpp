@@ -1,40 +1,29 @@
-// CPU backend: the shared stages in oneTBB loops, rays cast by Embree.
+// CPU backend: the step of sim/step.h with oneTBB loops; rays cast by Embree (or any Collider),
+// proximity queries on the host BVH.
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <utility>
 
+#include "collide/bvh.h"
 #include "collide/cpu/embree_collider.h"
 #include "sim/backend.h"
-#include "sim/stages.h"
+#include "sim/step.h"
 
 namespace raycloth {
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point& t) {
-  const auto now = Clock::now();
-  const double s = std::chrono::duration<double>(now - t).count();
-  t = now;
-  return s;
-}
-
-template <class F>
-void for_each_vertex(uint32_t n, F&& f) {
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 512), [&](const tbb::blocked_range<uint32_t>& r) {
-    for (uint32_t i = r.begin(); i != r.end(); ++i) f(i);
-  });
-}
+constexpr uint32_t kGrain = 256;
 
 class CpuBackend final : public Backend {
  public:
-  explicit CpuBackend(const BackendInput& in)
-      : scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), collider_(make_embree_collider()) {
+  CpuBackend(const BackendInput& in, std::unique_ptr<Collider> collider)
+      : scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), collider_(std::move(collider)) {
     const uint32_t n = model_.num_vertices();
     x_ = model_.initial_positions;
     v_.assign(n, make_vec3(0, 0, 0));
@@ -44,75 +33,32 @@ class CpuBackend final : public Backend {
     hits_.resize(n);
     contacts_.resize(n);
     contact_normal_.assign(n, make_vec3(0, 0, 0));
-    edge_rays_.resize(model_.num_edges());
-    edge_hits_.resize(model_.num_edges());
-    frozen_.assign(n, 0u);
+    bound_.assign(n, 0u);
+    flags_.assign(n, 0u);
     obstacles_.pose_at(0.0, obstacle_x_, obstacle_v_);
     collider_->set_obstacles(obstacle_x_.data(), obstacle_x_.size(), obstacles_.world.indices.data(),
                              obstacles_.world.num_triangles(), obstacles_.any_moving);
     collider_->set_cloth(n, model_.collision_triangles.data(), model_.tri_alias.data(), model_.num_collision_triangles(),
                          scene_.collision.cloth_cloth);
+    build_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.world.indices.data(),
+              uint32_t(obstacles_.world.num_triangles()));
+    build_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data(), model_.num_triangles());
   }
 
   std::string name() const override { return "cpu"; }
 
   StepResult step(int n, uint64_t first_step, StageTimes& times) override {
+    times_ = &times;
     StepResult result;
     for (int k = 0; k < n; ++k) {
       const uint64_t step_index = first_step + uint64_t(k);
-      StepView s = view();
-      auto t = Clock::now();
-
-      if (obstacles_.any_moving) {
-        obstacles_.pose_at(double(step_index) * scene_.time.dt, obstacle_x_, obstacle_v_);
-        collider_->update_obstacles(obstacle_x_.data());
-      }
-      // The crossing guard leaves the cloth's structure fitted to x_next, which is now x.
-      if (!cloth_at_x_) collider_->update_cloth(x_.data());
-      cloth_at_x_ = false;
-      times.update += seconds_since(t);
-
-      for_each_vertex(s.model.num_vertices, [&](uint32_t i) {
-        stage_integrate(s, i);
-        stage_velocity_ray(s, i);
-      });
-      times.integrate += seconds_since(t);
-
-      collider_->cast(rays_.data(), rays_.size(), hits_.data());
-      times.cast += seconds_since(t);
-      for_each_vertex(s.model.num_vertices, [&](uint32_t i) { stage_respond_velocity(s, i); });
-      times.respond += seconds_since(t);
-      collider_->cast(rays_.data(), rays_.size(), hits_.data());
-      times.cast += seconds_since(t);
-
-      std::atomic<int64_t> bad{-1};
-      result.hits = tbb::parallel_reduce(
-          tbb::blocked_range<uint32_t>(0, s.model.num_vertices, 512), uint64_t(0),
-          [&](const tbb::blocked_range<uint32_t>& r, uint64_t count) {
-            for (uint32_t i = r.begin(); i != r.end(); ++i) {
-              if (!stage_respond_contact(s, i)) {
-                int64_t cur = bad.load(std::memory_order_relaxed);
-                while ((cur < 0 || int64_t(i) < cur) && !bad.compare_exchange_weak(cur, int64_t(i))) {
-                }
-              }
-              count += s.contacts[i].w >= 0.0f ? 1 : 0;
-            }
-            return count;
-          },
-          [](uint64_t a, uint64_t b) { return a + b; });
-      times.respond += seconds_since(t);
-
-      collider_->cast(rays_.data(), rays_.size(), hits_.data());
-      times.cast += seconds_since(t);
-      for_each_vertex(s.model.num_vertices, [&](uint32_t i) { stage_certify(s, i); });
-      times.respond += seconds_since(t);
-
-      if (scene_.collision.cloth_cloth) guard(s, times, t, result);
-
-      std::swap(x_, x_next_);
-      std::swap(v_, v_next_);
-      if (bad.load() >= 0) {
-        result.bad_vertex = bad.load();
+      run_step(*this, step_index);
+      result.hits = counters_.hits;
+      result.pushed += counters_.pushed;
+      result.clamped += counters_.clamped;
+      result.conflicts += counters_.conflicts;
+      if (counters_.bad_vertex != 0xFFFFFFFFu) {
+        result.bad_vertex = counters_.bad_vertex;
         result.bad_step = step_index;
         return result;
       }
@@ -120,48 +66,89 @@ class CpuBackend final : public Backend {
     return result;
   }
 
-  // The crossing guard (sim/stages.h): edge rays at x_next until no edge crosses the cloth. Each
-  // round freezes more vertices at their crossing-free x, so it ends; past kMaxGuardRounds every
-  // vertex is frozen. Adds the vertices frozen and the rounds run to `result`.
-  void guard(const StepView& s, StageTimes& times, Clock::time_point& t, StepResult& result) {
-    constexpr uint32_t kMaxGuardRounds = 32;
-    const uint32_t ne = s.model.num_edges;
-    for (uint32_t round = 0;; ++round) {
-      collider_->update_cloth(x_next_.data());
-      times.update += seconds_since(t);
-      tbb::parallel_for(tbb::blocked_range<uint32_t>(0, ne, 1024), [&](const tbb::blocked_range<uint32_t>& r) {
-        for (uint32_t e = r.begin(); e != r.end(); ++e) stage_edge_ray(s, e);
-      });
-      collider_->cast_cloth(edge_rays_.data(), ne, edge_hits_.data());
-      times.cast += seconds_since(t);
-      // Marks are written serially: several edges may mark one vertex.
-      bool any = false;
-      for (uint32_t e = 0; e < ne; ++e) any = stage_edge_mark(s, e) || any;
-      if (!any) {
-        times.respond += seconds_since(t);
-        cloth_at_x_ = true;
-        result.guard_rounds += round + 1;
-        result.guard_rounds_max = std::max(result.guard_rounds_max, round + 1);
-        return;
-      }
-      if (round + 1 == kMaxGuardRounds) std::fill(frozen_.begin(), frozen_.end(), 1u);
-      result.frozen += tbb::parallel_reduce(
-          tbb::blocked_range<uint32_t>(0, s.model.num_vertices, 512), uint64_t(0),
-          [&](const tbb::blocked_range<uint32_t>& r, uint64_t count) {
-            for (uint32_t i = r.begin(); i != r.end(); ++i) count += stage_freeze(s, i) ? 1 : 0;
-            return count;
-          },
-          [](uint64_t a, uint64_t b) { return a + b; });
-      times.respond += seconds_since(t);
-    }
-  }
-
   void download(std::vector<Vec3>& x, std::vector<Vec3>& v) override {
     x = x_;
     v = v_;
   }
 
+  // ---- The executor of sim/step.h ----
+
+  StepView begin(uint64_t step) {
+    const auto t = Clock::now();
+    if (obstacles_.any_moving) {
+      obstacles_.pose_at(double(step + 1) * scene_.time.dt, obstacle_x_, obstacle_v_);
+      collider_->update_obstacles(obstacle_x_.data());
+      refit_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.world.indices.data());
+    }
+    collider_->update_cloth(x_.data());
+    refit_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data());
+    if (bvh_needs_rebuild(bvh_area(cloth_bvh_.view()), cloth_bvh_.built_area))
+      build_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data(), model_.num_triangles());
+    counters_ = StepCounters();
+    StepView s = view();
+    add_time(Stage::Update, t);
+    return s;
+  }
+
+  template <class F>
+  void for_each(Stage stage, uint32_t n, F&& f) {
+    const auto t = Clock::now();
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, kGrain), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t i = r.begin(); i != r.end(); ++i) f(i);
+    });
+    add_time(stage, t);
+  }
+
+  template <class F>
+  void sum(Stage stage, uint32_t n, F&& f, uint32_t* slot) {
+    const auto t = Clock::now();
+    *slot += tbb::parallel_reduce(
+        tbb::blocked_range<uint32_t>(0, n, kGrain), uint32_t(0),
+        [&](const tbb::blocked_range<uint32_t>& r, uint32_t acc) {
+          for (uint32_t i = r.begin(); i != r.end(); ++i) acc += f(i);
+          return acc;
+        },
+        [](uint32_t a, uint32_t b) { return a + b; });
+    add_time(stage, t);
+  }
+
+  template <class F>
+  void first(Stage stage, uint32_t n, F&& f, uint32_t* slot) {
+    const auto t = Clock::now();
+    *slot = std::min(*slot, tbb::parallel_reduce(
+                                tbb::blocked_range<uint32_t>(0, n, kGrain), 0xFFFFFFFFu,
+                                [&](const tbb::blocked_range<uint32_t>& r, uint32_t acc) {
+                                  for (uint32_t i = r.begin(); i != r.end(); ++i)
+                                    if (!f(i)) acc = std::min(acc, i);
+                                  return acc;
+                                },
+                                [](uint32_t a, uint32_t b) { return std::min(a, b); }));
+    add_time(stage, t);
+  }
+
+  void cast(const Ray* rays, uint32_t n, RawHit* hits) {
+    const auto t = Clock::now();
+    collider_->cast(rays, n, hits);
+    add_time(Stage::Cast, t);
+  }
+
+  void end() {
+    std::swap(x_, x_next_);
+    std::swap(v_, v_next_);
+  }
+
  private:
+  void add_time(Stage stage, Clock::time_point since) {
+    const double s = std::chrono::duration<double>(Clock::now() - since).count();
+    switch (stage) {
+      case Stage::Integrate: times_->integrate += s; break;
+      case Stage::Update: times_->update += s; break;
+      case Stage::Cast: times_->cast += s; break;
+      case Stage::Respond: times_->respond += s; break;
+      case Stage::Bound: times_->bound += s; break;
+    }
+  }
+
   StepView view() {
     StepView s = step_view_for(scene_);
     s.model = model_.view();
@@ -179,10 +166,22 @@ class CpuBackend final : public Backend {
     s.hits = hits_.data();
     s.contacts = contacts_.data();
     s.contact_normal = contact_normal_.data();
-    s.edge_rays = edge_rays_.data();
-    s.edge_hits = edge_hits_.data();
-    s.frozen = frozen_.data();
+    s.bound = bound_.data();
+    s.flags = flags_.data();
+    s.obstacle_bvh = obstacle_bvh_.view();
+    s.cloth_bvh = cloth_bvh_.view();
+    s.obstacle_reach = obstacle_reach();
+    s.counters = &counters_;
     return s;
+  }
+
+  // How far any obstacle surface point moves in one step, at most: the fastest vertex's speed times
+  // dt (a rotating vertex moves along a chord, shorter than its arc).
+  float obstacle_reach() const {
+    if (!obstacles_.any_moving) return 0.0f;
+    float vmax = 0.0f;
+    for (const Vec3& u : obstacle_v_) vmax = std::max(vmax, length(u));
+    return vmax * float(scene_.time.dt) * 1.01f;
   }
 
   const SceneDef& scene_;
@@ -194,14 +193,20 @@ class CpuBackend final : public Backend {
   std::vector<Ray> rays_;
   std::vector<RawHit> hits_;
   std::vector<Contact> contacts_;
-  std::vector<Ray> edge_rays_;
-  std::vector<RawHit> edge_hits_;
-  std::vector<uint32_t> frozen_;
-  bool cloth_at_x_ = false;
+  std::vector<uint32_t> bound_, flags_;
+  HostBvh obstacle_bvh_, cloth_bvh_;
+  StepCounters counters_;
+  StageTimes* times_ = nullptr;
 };
 
 }  // namespace
 
-std::unique_ptr<Backend> make_cpu_backend(const BackendInput& in) { return std::make_unique<CpuBackend>(in); }
+std::unique_ptr<Backend> make_cpu_backend(const BackendInput& in, std::unique_ptr<Collider> collider) {
+  return std::make_unique<CpuBackend>(in, std::move(collider));
+}
+
+std::unique_ptr<Backend> make_cpu_backend(const BackendInput& in) {
+  return make_cpu_backend(in, make_embree_collider());
+}
 
 }  // namespace raycloth

@@ -1,60 +1,61 @@
-// CUDA backend: the shared per-vertex stages (sim/stages.h) as kernels over device-resident state,
-// rays cast against the LBVH of collide/bvh.h (obstacle tree built once, cloth tree refit every
-// step and rebuilt when refitting has degraded it). The kernels of one step are captured into two
-// CUDA graphs, one per direction of the x/x_next double buffer, and Backend::step(n) launches them
-// n times, alternating; the only transfer per call is the small StepControl read back at the end
-// (plus, for scenes with moving obstacles, one upload of the call's obstacle poses). In cloth-cloth
-// scenes each step ends with the crossing guard, a fixed number of rounds inside the graph
-// (kGuardRounds). docs/gpu.md.
+// CUDA backend: the step of sim/step.h with kernels over device-resident state. The executor below
+// turns each loop of the step into a kernel launch on one stream (the lambdas are the shared stage
+// functions), casts against the LBVH of collide/bvh.h and keeps the step's counters in device
+// memory. Obstacle poses for a whole call are uploaded once at its start; the only transfer per
+// step is the small StepCounters read back after it (blow-up detection). docs/gpu.md.
 #include <cub/block/block_reduce.cuh>
 
 #include <chrono>
 #include <cstddef>
-#include <cstdlib>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "collide/bvh.h"
 #include "collide/cuda/cuda_check.cuh"
 #include "collide/cuda/device_bvh.cuh"
+#include "raycloth/error.h"
 #include "sim/backend.h"
 #include "sim/cuda_pose.cuh"
-#include "sim/stages.h"
+#include "sim/step.h"
 
 namespace raycloth {
 
 namespace {
 
 constexpr int kBlock = 256;
-constexpr unsigned long long kNoVertex = ~0ull;
-// Crossing-guard rounds per step. CpuBackend::guard loops until a round finds no edge through the
-// cloth (at most 32 rounds, freezing every vertex in the 32nd). A graph cannot loop on a device
-// result, so the GPU captures a fixed kGuardRounds rounds: once a round is clean the later ones
-// return at once (flags in StepControl), and if the kGuardRounds-th round still finds a crossing it
-// freezes every vertex, so the step still ends crossing-free. The two backends therefore differ
-// only in a step that needs more than kGuardRounds rounds.
-constexpr int kGuardRounds = 4;
 inline unsigned grid_for(uint32_t n) { return (n + kBlock - 1) / kBlock; }
 
-// Device-resident bookkeeping of a step(n) call; read back once at its end.
-struct StepControl {
-  unsigned long long step = 0;        // index of the step running now (from the start of the run)
-  unsigned long long call_first = 0;  // first step of this call: row 0 of the pose table
-  unsigned long long hits = 0;        // collision-buffer entries in the last step run
-  unsigned long long bad_vertex = kNoVertex;
-  unsigned long long bad_step = 0;
-  unsigned int stopped = 0;  // set after the step that blew up: later steps of the call do nothing
-  float cloth_area = 0;        // summed node area of the cloth tree after the last refit
-  float cloth_built_area = 0;  // the same right after its last build
-  // Crossing guard (cloth-cloth scenes only).
-  unsigned long long frozen = 0;           // vertices frozen in this call's steps
-  unsigned long long guard_exhausted = 0;  // steps of this call whose last round froze everything
-  unsigned int guard_open = 0;   // this step's guard has not had a clean round yet
-  unsigned int guard_found = 0;  // the current round found an edge through the cloth
-  // 1 while the cloth tree is not known to be fitted to x: the refit at the start of a step runs
-  // only then. A clean guard round leaves the tree fitted to x_next, the next step's x (0).
-  unsigned int cloth_stale = 1;
-};
+template <class F>
+__global__ void k_for_each(uint32_t n, F f) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) f(i);
+}
+
+// *slot += sum of f(i): a block sum, then one atomic add per block (integers: order-independent).
+template <class F>
+__global__ void k_sum(uint32_t n, F f, uint32_t* slot) {
+  using Reduce = cub::BlockReduce<uint32_t, kBlock>;
+  __shared__ typename Reduce::TempStorage temp;
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  const uint32_t value = i < n ? f(i) : 0u;
+  const uint32_t total = Reduce(temp).Sum(value);
+  if (threadIdx.x == 0 && total) atomicAdd(slot, total);
+}
+
+// *slot = min(*slot, smallest i with f(i) false).
+template <class F>
+__global__ void k_first(uint32_t n, F f, uint32_t* slot) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n && !f(i)) atomicMin(slot, i);
+}
+
+__global__ void k_trace(BvhScene scene, const Ray* rays, RawHit* hits, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) hits[i] = trace_collision(scene, rays[i]);
+}
+
+__global__ void k_reset_counters(StepCounters* c) { *c = StepCounters(); }
 
 // Moving obstacle vertices: which world vertex, its local position, which obstacle's pose.
 struct PoseView {
@@ -62,181 +63,33 @@ struct PoseView {
   const uint32_t* world_index = nullptr;
   const Vec3* local = nullptr;
   const uint32_t* pose_index = nullptr;
-  const RigidPose* table = nullptr;  // num_moving poses per step of the call
+  const RigidPose* table = nullptr;  // num_moving poses for one step
   Vec3* x = nullptr;
   Vec3* v = nullptr;
 };
 
-__global__ void k_begin_call(StepControl* c, unsigned long long first_step) {
-  c->step = first_step;
-  c->call_first = first_step;
-  c->bad_vertex = kNoVertex;
-  c->stopped = 0;
-  c->frozen = 0;
-  c->guard_exhausted = 0;
-  c->guard_open = 0;
-  c->guard_found = 0;
-}
-
-__global__ void k_pose_obstacles(PoseView p, const StepControl* c) {
+__global__ void k_pose_obstacles(PoseView p) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (c->stopped || i >= p.num_vertices) return;
-  const RigidPose& pose = p.table[(c->step - c->call_first) * p.num_moving + p.pose_index[i]];
+  if (i >= p.num_vertices) return;
   const uint32_t w = p.world_index[i];
-  pose_vertex(pose, p.local[i], p.x[w], p.v[w]);
-}
-
-__global__ void k_integrate(StepView s, StepControl* c) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (c->stopped) return;
-  if (i == 0) c->hits = 0;  // counted again in k_respond_contact, later in this step
-  if (i >= s.model.num_vertices) return;
-  stage_integrate(s, i);
-  stage_velocity_ray(s, i);
-}
-
-__global__ void k_trace(BvhScene scene, const Ray* rays, RawHit* hits, uint32_t n, const StepControl* c) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (c->stopped || i >= n) return;
-  hits[i] = trace_collision(scene, rays[i]);
-}
-
-__global__ void k_respond_velocity(StepView s, const StepControl* c) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (c->stopped || i >= s.model.num_vertices) return;
-  stage_respond_velocity(s, i);
-}
-
-// The last stage, the hit count (integers: the same total in any order) and the first bad vertex.
-__global__ void k_respond_contact(StepView s, StepControl* c) {
-  using Reduce = cub::BlockReduce<unsigned long long, kBlock>;
-  __shared__ typename Reduce::TempStorage temp;
-  if (c->stopped) return;  // uniform: only k_finish_step writes it
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  unsigned long long hit = 0;
-  if (i < s.model.num_vertices) {
-    if (!stage_respond_contact(s, i)) atomicMin(&c->bad_vertex, (unsigned long long)i);
-    hit = s.contacts[i].w >= 0.0f ? 1 : 0;
-  }
-  const unsigned long long block_hits = Reduce(temp).Sum(hit);
-  if (threadIdx.x == 0 && block_hits) atomicAdd(&c->hits, block_hits);
-}
-
-// The third ray's hit: the second response's move stops a thickness short of what it would cross.
-__global__ void k_certify(StepView s, const StepControl* c) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (c->stopped || i >= s.model.num_vertices) return;
-  stage_certify(s, i);
-}
-
-// ---- Crossing guard (CpuBackend::guard), kGuardRounds captured rounds ----------------------------
-// Each round: cloth refit at x_next (only while guard_open), k_edge_ray, k_trace_edges against the
-// cloth alone, k_edge_mark, k_freeze, k_guard_round_end. Every kernel returns at once when the
-// guard is closed (a clean round came earlier in this step, or the step is past a blow-up).
-
-__global__ void k_guard_begin(StepControl* c) {
-  if (c->stopped) return;
-  c->guard_open = 1;
-  c->guard_found = 0;
-}
-
-__global__ void k_edge_ray(StepView s, const StepControl* c) {
-  const uint32_t e = blockIdx.x * blockDim.x + threadIdx.x;
-  if (!c->guard_open || e >= s.model.num_edges) return;
-  stage_edge_ray(s, e);
-}
-
-// `scene` has an empty obstacle tree and the cloth at x_next, as BvhCollider::cast_cloth.
-__global__ void k_trace_edges(BvhScene scene, const Ray* rays, RawHit* hits, uint32_t n, const StepControl* c) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (!c->guard_open || i >= n) return;
-  hits[i] = trace_collision(scene, rays[i]);
-}
-
-// Plain stores of 1u, to `frozen` and to the round's flag: every writer stores the same value.
-__global__ void k_edge_mark(StepView s, StepControl* c) {
-  const uint32_t e = blockIdx.x * blockDim.x + threadIdx.x;
-  if (!c->guard_open || e >= s.model.num_edges) return;
-  if (stage_edge_mark(s, e)) c->guard_found = 1u;
-}
-
-// Puts the marked vertices back to x (every vertex in the last round) and counts them.
-__global__ void k_freeze(StepView s, StepControl* c, bool last_round) {
-  using Reduce = cub::BlockReduce<unsigned long long, kBlock>;
-  __shared__ typename Reduce::TempStorage temp;
-  if (!c->guard_open || !c->guard_found) return;  // uniform: no kernel running now writes them
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  unsigned long long frozen = 0;
-  if (i < s.model.num_vertices) {
-    if (last_round) s.frozen[i] = 1u;
-    frozen = stage_freeze(s, i) ? 1 : 0;
-  }
-  const unsigned long long block_frozen = Reduce(temp).Sum(frozen);
-  if (threadIdx.x == 0 && block_frozen) atomicAdd(&c->frozen, block_frozen);
-}
-
-__global__ void k_guard_round_end(StepControl* c, bool last_round) {
-  if (!c->guard_open) return;
-  if (!c->guard_found) {
-    // Clean: the tree was refit at this x_next, which the freezes left unchanged.
-    c->guard_open = 0;
-    c->cloth_stale = 0;
-    return;
-  }
-  c->guard_found = 0;
-  if (last_round) {
-    // Everything is back at the crossing-free x, but the tree is fitted to the positions before.
-    c->guard_open = 0;
-    c->cloth_stale = 1;
-    ++c->guard_exhausted;
-  }
-}
-
-__global__ void k_finish_step(StepControl* c) {
-  if (c->stopped) return;
-  if (c->bad_vertex != kNoVertex) {
-    c->stopped = 1;
-    c->bad_step = c->step;
-  }
-  ++c->step;
+  pose_vertex(p.table[p.pose_index[i]], p.local[i], p.x[w], p.v[w]);
 }
 
 __global__ void k_probe() {}
 
-// Events around the stages of one step, for the per-stage profile (RAYCLOTH_CUDA_PROFILE=1):
-// e[0] opens the step, and the time from e[k-1] to e[k] goes to the StageTimes field to[k].
-using StageField = double StageTimes::*;
-struct StageEvents {
-  static constexpr int kMax = 10 + 3 * kGuardRounds;
-  cudaEvent_t e[kMax] = {};
-  StageField to[kMax] = {};
-  int count = 0;
-};
-
 class CudaBackend final : public Backend {
  public:
   explicit CudaBackend(const BackendInput& in) : scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles) {
-    const char* profile = std::getenv("RAYCLOTH_CUDA_PROFILE");
-    profile_ = profile && *profile && std::string(profile) != "0";
     // A blocking stream: it waits for the setup copies (cudaMemcpy on the legacy default stream).
     CUDA_CHECK(cudaStreamCreate(&stream_));
-    CUDA_CHECK(cudaEventCreate(&start_));
-    CUDA_CHECK(cudaEventCreate(&stop_));
-    for (cudaEvent_t& e : events_.e) CUDA_CHECK(cudaEventCreate(&e));
-    CUDA_CHECK(cudaMallocHost(reinterpret_cast<void**>(&control_host_), sizeof(StepControl)));
+    CUDA_CHECK(cudaMallocHost(reinterpret_cast<void**>(&counters_host_), sizeof(StepCounters)));
     upload();
   }
 
   ~CudaBackend() override {
     // Nothing here may throw: errors are ignored while tearing down.
     if (stream_) cudaStreamSynchronize(stream_);
-    for (cudaGraphExec_t& g : graphs_)
-      if (g) cudaGraphExecDestroy(g);
-    for (cudaEvent_t e : events_.e)
-      if (e) cudaEventDestroy(e);
-    if (start_) cudaEventDestroy(start_);
-    if (stop_) cudaEventDestroy(stop_);
-    if (control_host_) cudaFreeHost(control_host_);
+    if (counters_host_) cudaFreeHost(counters_host_);
     if (stream_) cudaStreamDestroy(stream_);
   }
 
@@ -246,45 +99,27 @@ class CudaBackend final : public Backend {
     StepResult result;
     if (n <= 0) return result;
     if (obstacles_.any_moving) upload_poses(n, first_step);
-    if (!profile_ && !graphs_[0]) capture_graphs();
-
-    k_begin_call<<<1, 1, 0, stream_>>>(control_.data(), first_step);
-    CUDA_CHECK_LAUNCH();
-    if (profile_) {
-      for (int k = 0; k < n; ++k) {
-        enqueue_step((parity_ + k) & 1, &events_);
-        CUDA_CHECK(cudaEventSynchronize(events_.e[events_.count - 1]));
-        for (int j = 1; j < events_.count; ++j) times.*events_.to[j] += elapsed(events_.e[j - 1], events_.e[j]);
-      }
-    } else {
-      CUDA_CHECK(cudaEventRecord(start_, stream_));
-      for (int k = 0; k < n; ++k) CUDA_CHECK(cudaGraphLaunch(graphs_[(parity_ + k) & 1], stream_));
-      CUDA_CHECK(cudaEventRecord(stop_, stream_));
-    }
-    if (cloth_.num_prims() > 0) cloth_.area(control_field<float>(offsetof(StepControl, cloth_area)), stream_);
-    CUDA_CHECK(cudaMemcpyAsync(control_host_, control_.data(), sizeof(StepControl), cudaMemcpyDeviceToHost, stream_));
-    CUDA_CHECK(cudaStreamSynchronize(stream_));
-    // Without the profile the graph runs all stages at once; its time is reported under integrate.
-    if (!profile_) times.integrate += elapsed(start_, stop_);
-
-    const StepControl& c = *control_host_;
-    const uint64_t executed = c.stopped ? c.bad_step - first_step + 1 : uint64_t(n);
-    parity_ = (parity_ + int(executed & 1)) & 1;
-    result.hits = c.hits;
-    result.frozen = c.frozen;
-    guard_exhausted_ += c.guard_exhausted;
-    if (c.stopped) {
-      result.bad_vertex = int64_t(c.bad_vertex);
-      result.bad_step = c.bad_step;
-    }
-    // Rebuild the cloth tree for the next call when refitting has degraded it (docs/gpu.md).
-    if (cloth_.num_prims() > 0 && bvh_needs_rebuild(c.cloth_area, c.cloth_built_area)) {
-      auto t = std::chrono::steady_clock::now();
-      cloth_.build(x_[parity_].data(), cloth_indices_.data(), stream_, built_area());
+    call_first_ = first_step;
+    const auto t = std::chrono::steady_clock::now();
+    for (int k = 0; k < n; ++k) {
+      const uint64_t step_index = first_step + uint64_t(k);
+      run_step(*this, step_index);
+      CUDA_CHECK(cudaMemcpyAsync(counters_host_, counters_.data(), sizeof(StepCounters), cudaMemcpyDeviceToHost,
+                                 stream_));
       CUDA_CHECK(cudaStreamSynchronize(stream_));
-      times.update += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-      ++cloth_rebuilds_;
+      const StepCounters& c = *counters_host_;
+      result.hits = c.hits;
+      result.pushed += c.pushed;
+      result.clamped += c.clamped;
+      result.conflicts += c.conflicts;
+      if (c.bad_vertex != 0xFFFFFFFFu) {
+        result.bad_vertex = c.bad_vertex;
+        result.bad_step = step_index;
+        break;
+      }
     }
+    // Stages overlap on the device; their sum is reported under integrate.
+    times.integrate += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     return result;
   }
 
@@ -292,25 +127,72 @@ class CudaBackend final : public Backend {
     const size_t n = model_.num_vertices();
     x.resize(n);
     v.resize(n);
-    CUDA_CHECK(cudaMemcpyAsync(x.data(), x_[parity_].data(), n * sizeof(Vec3), cudaMemcpyDeviceToHost, stream_));
-    CUDA_CHECK(cudaMemcpyAsync(v.data(), v_[parity_].data(), n * sizeof(Vec3), cudaMemcpyDeviceToHost, stream_));
+    CUDA_CHECK(cudaMemcpyAsync(x.data(), x_[cur_].data(), n * sizeof(Vec3), cudaMemcpyDeviceToHost, stream_));
+    CUDA_CHECK(cudaMemcpyAsync(v.data(), v_[cur_].data(), n * sizeof(Vec3), cudaMemcpyDeviceToHost, stream_));
     CUDA_CHECK(cudaStreamSynchronize(stream_));
   }
 
+  // ---- The executor of sim/step.h ----
+
+  StepView begin(uint64_t step) {
+    if (obstacles_.any_moving) {
+      PoseView p;
+      p.num_vertices = uint32_t(moving_local_.size());
+      p.num_moving = uint32_t(moving_.size());
+      p.world_index = moving_world_index_.data();
+      p.local = moving_local_.data();
+      p.pose_index = moving_pose_index_.data();
+      p.table = pose_table_.data() + (step - call_first_) * moving_.size();
+      p.x = obstacle_x_.data();
+      p.v = obstacle_v_.data();
+      k_pose_obstacles<<<grid_for(p.num_vertices), kBlock, 0, stream_>>>(p);
+      CUDA_CHECK_LAUNCH();
+      obstacle_tree_.refit(obstacle_x_.data(), obstacle_indices_.data(), stream_);
+    }
+    if (cloth_.num_prims() > 0) {
+      cloth_.refit(x_[cur_].data(), cloth_indices_.data(), stream_);
+      if (++refits_since_build_ >= kRebuildEvery) {
+        cloth_.build(x_[cur_].data(), cloth_indices_.data(), stream_);
+        refits_since_build_ = 0;
+      }
+    }
+    k_reset_counters<<<1, 1, 0, stream_>>>(counters_.data());
+    CUDA_CHECK_LAUNCH();
+    return view();
+  }
+
+  template <class F>
+  void for_each(Stage, uint32_t n, F f) {
+    if (n == 0) return;
+    k_for_each<<<grid_for(n), kBlock, 0, stream_>>>(n, f);
+    CUDA_CHECK_LAUNCH();
+  }
+
+  template <class F>
+  void sum(Stage, uint32_t n, F f, uint32_t* slot) {
+    if (n == 0) return;
+    k_sum<<<grid_for(n), kBlock, 0, stream_>>>(n, f, slot);
+    CUDA_CHECK_LAUNCH();
+  }
+
+  template <class F>
+  void first(Stage, uint32_t n, F f, uint32_t* slot) {
+    if (n == 0) return;
+    k_first<<<grid_for(n), kBlock, 0, stream_>>>(n, f, slot);
+    CUDA_CHECK_LAUNCH();
+  }
+
+  void cast(const Ray* rays, uint32_t n, RawHit* hits) {
+    k_trace<<<grid_for(n), kBlock, 0, stream_>>>(trace_scene(), rays, hits, n);
+    CUDA_CHECK_LAUNCH();
+  }
+
+  void end() { cur_ ^= 1; }
+
  private:
-  // Device address of one StepControl field.
-  template <class T>
-  T* control_field(size_t offset) const {
-    return reinterpret_cast<T*>(reinterpret_cast<char*>(control_.data()) + offset);
-  }
-
-  float* built_area() const { return control_field<float>(offsetof(StepControl, cloth_built_area)); }
-
-  static double elapsed(cudaEvent_t a, cudaEvent_t b) {
-    float ms = 0;
-    CUDA_CHECK(cudaEventElapsedTime(&ms, a, b));
-    return double(ms) * 1e-3;
-  }
+  // The cloth tree is refit every step and rebuilt every kRebuildEvery steps (the CPU rebuilds on
+  // the area trigger; the GPU avoids reading the area back inside a call).
+  static constexpr int kRebuildEvery = 256;
 
   // Model, state and trees to the device, once.
   void upload() {
@@ -324,9 +206,10 @@ class CudaBackend final : public Backend {
     adj_k_ = DeviceBuffer<float>(m.adj_k);
     adj_kd_ = DeviceBuffer<float>(m.adj_kd);
     alias_ = DeviceBuffer<uint32_t>(m.alias);
-    cloth_indices_ = DeviceBuffer<uint32_t>(m.collision_triangles);  // cloth, then seam strips
+    cloth_indices_ = DeviceBuffer<uint32_t>(m.collision_triangles);
     tri_alias_ = DeviceBuffer<uint32_t>(m.tri_alias);
     edges_ = DeviceBuffer<uint32_t>(m.edges);
+    tri_edge_owner_ = DeviceBuffer<uint8_t>(m.tri_edge_owner);
 
     const std::vector<Vec3> zero(n, make_vec3(0, 0, 0));
     for (int b = 0; b < 2; ++b) {
@@ -337,10 +220,9 @@ class CudaBackend final : public Backend {
     rays_.resize(n);
     hits_.resize(n);
     contacts_.resize(n);
-    edge_rays_.resize(m.num_edges());
-    edge_hits_.resize(m.num_edges());
-    frozen_ = DeviceBuffer<uint32_t>(std::vector<uint32_t>(n, 0u));
-    control_ = DeviceBuffer<StepControl>(std::vector<StepControl>(1));
+    bound_.resize(n);
+    flags_.resize(n);
+    counters_ = DeviceBuffer<StepCounters>(std::vector<StepCounters>(1));
 
     std::vector<Vec3> ox, ov;
     obstacles_.pose_at(0.0, ox, ov);
@@ -348,15 +230,21 @@ class CudaBackend final : public Backend {
     obstacle_v_ = DeviceBuffer<Vec3>(ov);
     obstacle_indices_ = DeviceBuffer<uint32_t>(obstacles_.world.indices);
     if (obstacles_.any_moving) upload_moving_vertices();
+    float reach = 0.0f;  // fastest obstacle point over the run's motions, per step
+    for (const ObstacleDef& d : obstacles_.defs) {
+      if (!d.motion) continue;
+      std::vector<Vec3> x, v;
+      obstacles_.pose_at(d.motion->start + scene_.time.dt, x, v);
+      for (const Vec3& u : v) reach = std::max(reach, length(u));
+    }
+    obstacle_reach_ = reach * float(scene_.time.dt) * 1.01f;
     // cudaMemcpy from pageable memory may return before the data has arrived: wait for it.
     CUDA_CHECK(cudaDeviceSynchronize());
 
     obstacle_tree_.allocate(uint32_t(obstacles_.world.num_triangles()));
     obstacle_tree_.build(obstacle_x_.data(), obstacle_indices_.data(), stream_);
-    if (scene_.collision.cloth_cloth) {
-      cloth_.allocate(m.num_collision_triangles());
-      cloth_.build(x_[0].data(), cloth_indices_.data(), stream_, built_area());
-    }
+    cloth_.allocate(m.num_collision_triangles());
+    cloth_.build(x_[0].data(), cloth_indices_.data(), stream_);
     CUDA_CHECK(cudaStreamSynchronize(stream_));
   }
 
@@ -377,24 +265,21 @@ class CudaBackend final : public Backend {
     moving_pose_index_ = DeviceBuffer<uint32_t>(pose_index);
   }
 
-  // The poses of this call's steps, uploaded once before its graph launches. A larger table than
-  // the graphs were captured with means capturing them again.
+  // The poses at the end of each of this call's steps (t + dt), uploaded once before its steps.
   void upload_poses(int n, uint64_t first_step) {
     std::vector<RigidPose> table(size_t(n) * moving_.size());
     for (int k = 0; k < n; ++k)
       for (size_t m = 0; m < moving_.size(); ++m)
         table[size_t(k) * moving_.size() + m] =
-            rigid_pose_at(obstacles_.defs[moving_[m]], double(first_step + uint64_t(k)) * scene_.time.dt);
-    if (table.size() > pose_table_.size()) {
-      pose_table_.resize(table.size());
-      destroy_graphs();
-    }
+            rigid_pose_at(obstacles_.defs[moving_[m]], double(first_step + uint64_t(k) + 1) * scene_.time.dt);
+    if (table.size() > pose_table_.size()) pose_table_.resize(table.size());
     CUDA_CHECK(cudaMemcpyAsync(pose_table_.data(), table.data(), table.size() * sizeof(RigidPose),
                                cudaMemcpyHostToDevice, stream_));
+    CUDA_CHECK(cudaStreamSynchronize(stream_));  // `table` is pageable and goes out of scope
   }
 
-  StepView view(int parity) {
-    const int cur = parity, next = parity ^ 1;
+  StepView view() {
+    const int cur = cur_, next = cur_ ^ 1;
     StepView s = step_view_for(scene_);
     s.model.num_vertices = model_.num_vertices();
     s.model.inv_mass = inv_mass_.data();
@@ -409,6 +294,8 @@ class CudaBackend final : public Backend {
     s.model.tri_alias = tri_alias_.data();
     s.model.edges = edges_.data();
     s.model.num_edges = model_.num_edges();
+    s.model.num_triangles = model_.num_collision_triangles();
+    s.model.tri_edge_owner = tri_edge_owner_.data();
     s.geom.obstacle_vertices = obstacle_x_.data();
     s.geom.obstacle_velocities = obstacles_.any_moving ? obstacle_v_.data() : nullptr;
     s.geom.obstacle_indices = obstacle_indices_.data();
@@ -423,171 +310,46 @@ class CudaBackend final : public Backend {
     s.hits = hits_.data();
     s.contacts = contacts_.data();
     s.contact_normal = contact_normal_.data();
-    s.edge_rays = edge_rays_.data();
-    s.edge_hits = edge_hits_.data();
-    s.frozen = frozen_.data();
+    s.bound = bound_.data();
+    s.flags = flags_.data();
+    s.obstacle_bvh = obstacle_tree_.view();
+    s.cloth_bvh = cloth_.view();
+    s.obstacle_reach = obstacle_reach_;
+    s.counters = counters_.data();
     return s;
   }
 
-  BvhScene trace_scene(int parity) {
+  BvhScene trace_scene() {
     BvhScene b;
     b.obstacles = obstacle_tree_.view();
     b.obstacle_vertices = obstacle_x_.data();
     b.obstacle_indices = obstacle_indices_.data();
-    b.cloth = cloth_.view();
-    b.cloth_positions = x_[parity].data();
+    if (scene_.collision.cloth_cloth) b.cloth = cloth_.view();
+    b.cloth_positions = x_[cur_].data();
     b.cloth_indices = cloth_indices_.data();
     b.tri_alias = tri_alias_.data();
     return b;
   }
 
-  // One step from buffer `parity` into the other, the same sequence as CpuBackend::step; with
-  // `ev`, events between the stages (each one names the StageTimes field of the span it closes).
-  void enqueue_step(int parity, StageEvents* ev) {
-    const uint32_t n = model_.num_vertices();
-    StepControl* c = control_.data();
-    const StepView s = view(parity);
-    const BvhScene scene = trace_scene(parity);
-    const bool guard = scene_.collision.cloth_cloth && cloth_.num_prims() > 0 && model_.num_edges() > 0;
-    if (ev) ev->count = 0;
-    auto mark = [&](StageField to) {
-      if (!ev) return;
-      ev->to[ev->count] = to;
-      CUDA_CHECK(cudaEventRecord(ev->e[ev->count++], stream_));
-    };
-    mark(nullptr);
-    if (obstacles_.any_moving) {
-      PoseView p;
-      p.num_vertices = uint32_t(moving_local_.size());
-      p.num_moving = uint32_t(moving_.size());
-      p.world_index = moving_world_index_.data();
-      p.local = moving_local_.data();
-      p.pose_index = moving_pose_index_.data();
-      p.table = pose_table_.data();
-      p.x = obstacle_x_.data();
-      p.v = obstacle_v_.data();
-      k_pose_obstacles<<<grid_for(p.num_vertices), kBlock, 0, stream_>>>(p, c);
-      CUDA_CHECK_LAUNCH();
-      obstacle_tree_.refit(obstacle_x_.data(), obstacle_indices_.data(), stream_);
-    }
-    // With the guard, a step whose guard ended clean left the tree fitted to this x: the refit
-    // runs only while StepControl::cloth_stale says otherwise (as CpuBackend's cloth_at_x_).
-    if (cloth_.num_prims() > 0) {
-      const unsigned int* stale = guard ? control_field<unsigned int>(offsetof(StepControl, cloth_stale)) : nullptr;
-      cloth_.refit(x_[parity].data(), cloth_indices_.data(), stream_, stale);
-    }
-    mark(&StageTimes::update);
-    k_integrate<<<grid_for(n), kBlock, 0, stream_>>>(s, c);
-    CUDA_CHECK_LAUNCH();
-    mark(&StageTimes::integrate);
-    k_trace<<<grid_for(n), kBlock, 0, stream_>>>(scene, rays_.data(), hits_.data(), n, c);
-    CUDA_CHECK_LAUNCH();
-    mark(&StageTimes::cast);
-    k_respond_velocity<<<grid_for(n), kBlock, 0, stream_>>>(s, c);
-    CUDA_CHECK_LAUNCH();
-    mark(&StageTimes::respond);
-    k_trace<<<grid_for(n), kBlock, 0, stream_>>>(scene, rays_.data(), hits_.data(), n, c);
-    CUDA_CHECK_LAUNCH();
-    mark(&StageTimes::cast);
-    k_respond_contact<<<grid_for(n), kBlock, 0, stream_>>>(s, c);
-    CUDA_CHECK_LAUNCH();
-    mark(&StageTimes::respond);
-    // Third rays (prepared by stage_respond_contact) against the full scene, then certify.
-    k_trace<<<grid_for(n), kBlock, 0, stream_>>>(scene, rays_.data(), hits_.data(), n, c);
-    CUDA_CHECK_LAUNCH();
-    mark(&StageTimes::cast);
-    k_certify<<<grid_for(n), kBlock, 0, stream_>>>(s, c);
-    CUDA_CHECK_LAUNCH();
-    if (guard) enqueue_guard(parity, s, mark);
-    // After the guard, so that the step that blows up still runs certify and the guard, as on the CPU.
-    k_finish_step<<<1, 1, 0, stream_>>>(c);
-    CUDA_CHECK_LAUNCH();
-    mark(&StageTimes::respond);
-  }
-
-  // The crossing guard without a host round trip: kGuardRounds rounds captured in the graph (see
-  // kGuardRounds for how this differs from CpuBackend::guard's loop).
-  template <class Mark>
-  void enqueue_guard(int parity, const StepView& s, Mark& mark) {
-    const int next = parity ^ 1;
-    const uint32_t n = model_.num_vertices(), ne = model_.num_edges();
-    StepControl* c = control_.data();
-    const unsigned int* open = control_field<unsigned int>(offsetof(StepControl, guard_open));
-    // BvhCollider::cast_cloth: the cloth alone, at x_next.
-    BvhScene cloth_only = trace_scene(next);
-    cloth_only.obstacles = BvhView();
-    cloth_only.obstacle_vertices = nullptr;
-    cloth_only.obstacle_indices = nullptr;
-    k_guard_begin<<<1, 1, 0, stream_>>>(c);
-    CUDA_CHECK_LAUNCH();
-    mark(&StageTimes::respond);
-    for (int round = 0; round < kGuardRounds; ++round) {
-      const bool last = round + 1 == kGuardRounds;
-      cloth_.refit(x_[next].data(), cloth_indices_.data(), stream_, open);
-      mark(&StageTimes::update);
-      k_edge_ray<<<grid_for(ne), kBlock, 0, stream_>>>(s, c);
-      CUDA_CHECK_LAUNCH();
-      k_trace_edges<<<grid_for(ne), kBlock, 0, stream_>>>(cloth_only, edge_rays_.data(), edge_hits_.data(), ne, c);
-      CUDA_CHECK_LAUNCH();
-      mark(&StageTimes::cast);
-      k_edge_mark<<<grid_for(ne), kBlock, 0, stream_>>>(s, c);
-      CUDA_CHECK_LAUNCH();
-      k_freeze<<<grid_for(n), kBlock, 0, stream_>>>(s, c, last);
-      CUDA_CHECK_LAUNCH();
-      k_guard_round_end<<<1, 1, 0, stream_>>>(c, last);
-      CUDA_CHECK_LAUNCH();
-      mark(&StageTimes::respond);
-    }
-  }
-
-  void capture_graphs() {
-    for (int parity = 0; parity < 2; ++parity) {
-      cudaGraph_t graph = nullptr;
-      CUDA_CHECK(cudaStreamBeginCapture(stream_, cudaStreamCaptureModeThreadLocal));
-      try {
-        enqueue_step(parity, nullptr);
-      } catch (...) {
-        cudaStreamEndCapture(stream_, &graph);
-        if (graph) cudaGraphDestroy(graph);
-        throw;
-      }
-      CUDA_CHECK(cudaStreamEndCapture(stream_, &graph));
-      const cudaError_t e = cudaGraphInstantiate(&graphs_[parity], graph, 0);
-      cudaGraphDestroy(graph);
-      CUDA_CHECK(e);
-    }
-  }
-
-  void destroy_graphs() {
-    for (cudaGraphExec_t& g : graphs_) {
-      if (g) CUDA_CHECK(cudaGraphExecDestroy(g));
-      g = nullptr;
-    }
-  }
-
   const SceneDef& scene_;
   const ClothModel& model_;
   const ObstacleSet& obstacles_;
-  bool profile_ = false;
   cudaStream_t stream_ = nullptr;
-  cudaEvent_t start_ = nullptr, stop_ = nullptr;
-  StageEvents events_;
-  cudaGraphExec_t graphs_[2] = {nullptr, nullptr};
-  StepControl* control_host_ = nullptr;  // pinned
-  int parity_ = 0;                       // x_[parity_] holds the state at the current time
-  uint32_t cloth_rebuilds_ = 0;
-  uint64_t guard_exhausted_ = 0;  // steps whose last guard round still found a crossing (all frozen)
+  StepCounters* counters_host_ = nullptr;  // pinned
+  int cur_ = 0;                            // x_[cur_] holds the state at the current time
+  int refits_since_build_ = 0;
+  uint64_t call_first_ = 0;
+  float obstacle_reach_ = 0;
 
   DeviceBuffer<float> inv_mass_, damping_, adj_rest_, adj_k_, adj_kd_;
   DeviceBuffer<uint32_t> adj_offset_, adj_other_, alias_, cloth_indices_, tri_alias_, edges_;
+  DeviceBuffer<uint8_t> tri_edge_owner_;
   DeviceBuffer<Vec3> x_[2], v_[2], contact_normal_;
   DeviceBuffer<Ray> rays_;
   DeviceBuffer<RawHit> hits_;
   DeviceBuffer<Contact> contacts_;
-  DeviceBuffer<Ray> edge_rays_;        // crossing guard: one per model edge
-  DeviceBuffer<RawHit> edge_hits_;
-  DeviceBuffer<uint32_t> frozen_;      // crossing guard: per vertex, zero between rounds
-  DeviceBuffer<StepControl> control_;
+  DeviceBuffer<uint32_t> bound_, flags_;
+  DeviceBuffer<StepCounters> counters_;
   DeviceBuffer<Vec3> obstacle_x_, obstacle_v_;
   DeviceBuffer<uint32_t> obstacle_indices_;
   std::vector<size_t> moving_;  // obstacle index of each moving obstacle

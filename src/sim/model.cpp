@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <set>
 
 #include "raycloth/error.h"
 #include "scene/transform.h"
@@ -46,6 +47,56 @@ uint32_t find_root(std::vector<uint32_t>& parent, uint32_t i) {
   return i;
 }
 
+// Makes each seam group one simulated vertex: the group meets at its centroid, its representative
+// carries the group's mass (pinned if any member is) and every spring, and the other members follow
+// it (inv_mass 0, mass 0, copied at the end of each step). Triangles and edges use representatives.
+void weld_seams(ClothModel& m) {
+  const uint32_t n = m.num_vertices();
+  std::vector<Vec3> sum(n, make_vec3(0, 0, 0));
+  std::vector<uint32_t> members(n, 0u);
+  for (uint32_t i = 0; i < n; ++i) {
+    sum[m.alias[i]] += m.initial_positions[i];
+    ++members[m.alias[i]];
+  }
+  for (uint32_t i = 0; i < n; ++i) m.initial_positions[i] = sum[m.alias[i]] / float(members[m.alias[i]]);
+  for (uint32_t i = 0; i < n; ++i) {
+    const uint32_t r = m.alias[i];
+    if (r == i) continue;
+    m.mass[r] += m.mass[i];
+    if (m.inv_mass[i] == 0.0f) m.inv_mass[r] = 0.0f;
+    m.mass[i] = 0.0f;
+    m.inv_mass[i] = 0.0f;
+  }
+  for (uint32_t i = 0; i < n; ++i)
+    if (m.alias[i] == i && m.inv_mass[i] != 0.0f) m.inv_mass[i] = 1.0f / m.mass[i];
+  std::vector<Spring> springs;
+  springs.reserve(m.springs.size());
+  for (Spring sp : m.springs) {
+    sp.a = m.alias[sp.a];
+    sp.b = m.alias[sp.b];
+    if (sp.a != sp.b) springs.push_back(sp);
+  }
+  m.springs = std::move(springs);
+  m.collision_triangles.resize(m.triangles.size());
+  for (size_t k = 0; k < m.triangles.size(); ++k) m.collision_triangles[k] = m.alias[m.triangles[k]];
+  m.tri_alias = m.collision_triangles;
+  std::vector<std::pair<uint32_t, uint32_t>> e;
+  e.reserve(m.triangles.size());
+  std::set<std::pair<uint32_t, uint32_t>> seen;
+  m.tri_edge_owner.assign(m.num_collision_triangles(), 0);
+  for (size_t t = 0; t < m.collision_triangles.size(); t += 3)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = m.collision_triangles[t + k], b = m.collision_triangles[t + (k + 1) % 3];
+      e.emplace_back(std::min(a, b), std::max(a, b));
+      if (seen.insert(e.back()).second) m.tri_edge_owner[t / 3] |= uint8_t(1u << k);
+    }
+  std::sort(e.begin(), e.end());
+  e.erase(std::unique(e.begin(), e.end()), e.end());
+  m.edges.clear();
+  m.edges.reserve(2 * e.size());
+  for (const auto& [a, b] : e) m.edges.insert(m.edges.end(), {a, b});
+}
+
 }  // namespace
 
 ModelView ClothModel::view() const {
@@ -63,6 +114,8 @@ ModelView ClothModel::view() const {
   v.tri_alias = tri_alias.data();
   v.edges = edges.data();
   v.num_edges = num_edges();
+  v.num_triangles = num_collision_triangles();
+  v.tri_edge_owner = tri_edge_owner.data();
   return v;
 }
 
@@ -166,8 +219,8 @@ ClothModel build_cloth_model(const SceneDef& s) {
     m.pieces.push_back(p);
   }
 
-  // Seams: matched boundary vertices pulled together by zero-length springs.
-  m.collision_triangles = m.triangles;
+  // Seams: matched boundary vertices are welded into one vertex (the smallest index of each group
+  // represents it), so the triangles on both sides share it and no gap or overlap can open there.
   std::vector<uint32_t> parent(m.num_vertices());
   std::iota(parent.begin(), parent.end(), 0u);
   for (size_t si = 0; si < s.seams.size(); ++si) {
@@ -183,32 +236,13 @@ ClothModel build_cloth_model(const SceneDef& s) {
                            " vertices but edge '" + sd.b.edge + "' of panel '" + sd.b.panel + "' has " +
                            std::to_string(eb.size()));
     if (sd.reverse) std::reverse(eb.begin(), eb.end());
-    for (size_t k = 0; k + 1 < ea.size(); ++k)
-      m.collision_triangles.insert(m.collision_triangles.end(), {ea[k], eb[k], eb[k + 1], ea[k], eb[k + 1], ea[k + 1]});
     for (size_t k = 0; k < ea.size(); ++k) {
-      if (ea[k] == eb[k]) continue;
-      m.springs.push_back({ea[k], eb[k], 0.0f, sd.stiffness, 0.0f, SpringType::Seam});
-      parent[find_root(parent, ea[k])] = find_root(parent, eb[k]);
+      const uint32_t ra = find_root(parent, ea[k]), rb = find_root(parent, eb[k]);
+      parent[std::max(ra, rb)] = std::min(ra, rb);
     }
   }
   m.alias.resize(m.num_vertices());
   for (uint32_t i = 0; i < m.num_vertices(); ++i) m.alias[i] = find_root(parent, i);
-  m.tri_alias.resize(m.collision_triangles.size());
-  for (size_t i = 0; i < m.collision_triangles.size(); ++i) m.tri_alias[i] = m.alias[m.collision_triangles[i]];
-  {
-    std::vector<std::pair<uint32_t, uint32_t>> e;
-    e.reserve(m.triangles.size());
-    for (size_t t = 0; t < m.triangles.size(); t += 3)
-      for (int k = 0; k < 3; ++k) {
-        const uint32_t a = m.triangles[t + k], b = m.triangles[t + (k + 1) % 3];
-        e.emplace_back(std::min(a, b), std::max(a, b));
-      }
-    std::sort(e.begin(), e.end());
-    e.erase(std::unique(e.begin(), e.end()), e.end());
-    m.edges.reserve(2 * e.size());
-    for (const auto& [a, b] : e) m.edges.insert(m.edges.end(), {a, b});
-  }
-
   // Pins.
   for (size_t pi = 0; pi < s.pins.size(); ++pi) {
     const PinDef& pd = s.pins[pi];
@@ -242,6 +276,7 @@ ClothModel build_cloth_model(const SceneDef& s) {
     for (uint32_t id : ids) m.inv_mass[id] = 0.0f;
   }
 
+  weld_seams(m);
   build_adjacency(m);
   return m;
 }

@@ -42,6 +42,9 @@ struct ModelView {
   const uint32_t* tri_alias = nullptr;   // alias of each collision-triangle corner
   const uint32_t* edges = nullptr;       // 2 per edge of the cloth surface
   uint32_t num_edges = 0;
+  uint32_t num_triangles = 0;            // collision triangles
+  const uint8_t* tri_edge_owner = nullptr;  // per triangle: bit k set when it is the lowest-numbered
+                                            // triangle holding its edge k (corners k, k+1)
 };
 
 struct ClothModel {
@@ -60,6 +63,7 @@ struct ClothModel {
   // The edges of the cloth surface (`triangles`), each once, smaller vertex first: the crossing
   // guard casts a ray along each of them.
   std::vector<uint32_t> edges;
+  std::vector<uint8_t> tri_edge_owner;  // see ModelView
 
   uint32_t num_vertices() const { return uint32_t(initial_positions.size()); }
   uint32_t num_triangles() const { return uint32_t(triangles.size() / 3); }

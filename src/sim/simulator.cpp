@@ -57,9 +57,9 @@ void Simulator::step(int n) {
   const StepResult r = backend_->step(n, steps_, times_);
   synced_ = false;
   last_hits_ = r.hits;
-  frozen_total_ += r.frozen;
-  guard_rounds_total_ += r.guard_rounds;
-  guard_rounds_max_ = std::max(guard_rounds_max_, r.guard_rounds_max);
+  pushed_total_ += r.pushed;
+  clamped_total_ += r.clamped;
+  conflicts_total_ += r.conflicts;
   if (r.bad_vertex >= 0) {
     steps_ = r.bad_step + 1;
     const std::vector<Vec3>& x = positions();

@@ -1,54 +1,93 @@
-// The stages of one step as per-vertex functions over plain pointers. The CPU backend runs them
-// in oneTBB loops, the CUDA backend in kernels: one copy of the physics for both.
+// The stages of one step as per-vertex (or per-edge) functions over plain pointers. The sequence
+// that calls them is written once, in sim/step.h, and run by every backend: oneTBB loops on the
+// CPU, kernels on the GPU.
 //
-//   integrate      eq. (2)+(3): proposed v', x'
-//   (update)       backend: refit the cloth's acceleration structure at x
-//   velocity rays  the paper's ray per vertex along v'      -> cast -> hits
-//   respond 1      collision buffer from the hit; respond; second rays: along the corrected move
-//                  for vertices that responded, along the last contact normal for the others
-//   (cast)         backend: second rays                     -> hits
-//   respond 2      respond to second-ray hits; remember contact normals; check for blow-up;
-//                  a move made by this response gets a third ray        -> cast -> hits
-//   certify        the third ray's move stops a thickness short of any surface it would cross
-//   crossing guard (cloth-cloth only) refit the cloth at x_next; one ray along every cloth edge
-//                  -> cast against the cloth; an edge that passes through a cloth triangle freezes
-//                  the edge's and the triangle's vertices at x (v = 0); repeated until no edge
-//                  crosses. x is crossing-free, so this always ends crossing-free.
+//   integrate        eq. (2)+(3): proposed v', x'; the paper's ray per vertex along the move
+//   (cast)           backend: rays against the obstacles (posed at t + dt) and the cloth (at x)
+//   respond 1        the collision buffer from the hit; respond; second ray along the last contact
+//                    normal (resting and sliding contact) or along the corrected move
+//   (cast)           backend: second rays
+//   respond 2        respond to second-ray hits
+//   obstacles        the obstacles at t + dt: a vertex inside one, or nearer than the thickness,
+//                    goes to the thickness outside its nearest point and takes the surface's
+//                    velocity there (minus friction): a body moving into cloth at rest pushes it
+//   bound            per vertex, the distance at x to the nearest cloth feature it shares no vertex
+//                    with (vertex-triangle both ways, edge-edge), one query per triangle within a
+//                    radius set by its corners' moves
+//   clamp            each vertex moves at most kBoundFactor (< 1/2) of that distance: no two
+//                    features that are apart at x can meet during the step, so a step that starts
+//                    with no edge through cloth ends with none
+//   weld             seam partners take their representative's state
+//   check            blow-up test
 #pragma once
 #include <cstdint>
 
+#include "collide/proximity.h"
 #include "collide/rules.h"
 #include "sim/physics.h"
 
 namespace raycloth {
 
+// The share of the distance to the nearest non-adjacent feature that a vertex may move in one step.
+// Two features each move at most this share, so below 1/2 they cannot meet; 0.4 leaves 20 % of the
+// gap for rounding (distances are computed in double from the float positions).
+inline constexpr float kBoundFactor = 0.4f;
+// Absolute slack taken off every bound (metres): covers float rounding of the new position.
+inline constexpr float kBoundSlack = 1e-6f;
+
+// A velocity component past this (m/s) right after integration is a blow-up: the bound would
+// otherwise keep an unstable step's positions in range and hide it.
+inline constexpr float kRunawaySpeed = 1e3f;
+
+// Counters of one step, in the backend's memory (device memory on the GPU). Float maxima are kept
+// as bit patterns so that atomics and reductions give the same value in any thread order.
+struct StepCounters {
+  uint32_t hits = 0;           // vertices with an entry in the collision buffer
+  uint32_t pushed = 0;         // vertices pushed out of (or off) an obstacle at t + dt
+  uint32_t clamped = 0;        // vertices whose move the bound shortened
+  uint32_t conflicts = 0;      // vertices the bound kept from leaving an obstacle completely
+  uint32_t bad_vertex = 0xFFFFFFFFu;  // smallest vertex that blew up
+};
+
 struct StepView {
   ModelView model;
   CollisionParams coll;
-  CollisionGeometry geom;
+  CollisionGeometry geom;      // obstacle vertices/velocities at t + dt, cloth at x
   Vec3 gravity;
-  float blowup_limit = 1e4f;  // |x| past this (metres) is a blow-up
-  const Vec3* x = nullptr;    // state at t
+  float blowup_limit = 1e4f;   // |x| past this (metres) is a blow-up
+  const Vec3* x = nullptr;     // state at t
   const Vec3* v = nullptr;
-  Vec3* x_next = nullptr;     // state at t + dt
+  Vec3* x_next = nullptr;      // state at t + dt
   Vec3* v_next = nullptr;
   Ray* rays = nullptr;
   RawHit* hits = nullptr;
   Contact* contacts = nullptr;     // the collision buffer, one entry per vertex
   Vec3* contact_normal = nullptr;  // last step's acting contact normal (0 = none), updated in place
-  Ray* edge_rays = nullptr;        // crossing guard: one per model edge
-  RawHit* edge_hits = nullptr;
-  uint32_t* frozen = nullptr;      // crossing guard: per vertex, nonzero = put back to x
+  uint32_t* bound = nullptr;       // per vertex: float bits of the nearest non-adjacent distance
+  uint32_t* flags = nullptr;       // per vertex: kFlagPushed when an obstacle pushed it this step
+  BvhView obstacle_bvh;            // over geom.obstacle_indices at t + dt
+  BvhView cloth_bvh;               // over model.triangles at x
+  float obstacle_reach = 0;        // how far an obstacle surface moves in this step, at most
+  StepCounters* counters = nullptr;
 };
+
+inline constexpr uint32_t kFlagPushed = 1u;   // an obstacle pushed the vertex this step
+inline constexpr uint32_t kFlagClamped = 2u;  // the bound shortened its move
+inline constexpr uint32_t kFlagBlowup = 4u;   // integration gave a non-finite or runaway velocity
+
+RC_HD bool is_representative(const ModelView& m, uint32_t i) { return m.alias[i] == i; }
 
 RC_HD void stage_integrate(const StepView& s, uint32_t i) {
   integrate_vertex(s.model, s.x, s.v, i, s.gravity, s.coll.dt, s.v_next[i], s.x_next[i]);
-}
-
-RC_HD void stage_velocity_ray(const StepView& s, uint32_t i) {
   s.contacts[i] = Contact();
-  s.rays[i] = s.model.inv_mass[i] == 0.0f ? Ray() : velocity_ray(s.x[i], s.x_next[i], s.model.alias[i], s.coll);
-  s.rays[i].vertex = s.model.alias[i];
+  s.rays[i] = s.model.inv_mass[i] == 0.0f ? Ray() : velocity_ray(s.x[i], s.x_next[i], i, s.coll);
+  s.rays[i].vertex = i;
+  s.bound[i] = bits_from_float(INFINITY);
+  // Checked before any response or bound can hide it: an unstable time step shows here first.
+  const Vec3 vn = s.v_next[i];
+  const bool runaway = !is_finite(vn) || !is_finite(s.x_next[i]) || fabsf(vn.x) > kRunawaySpeed ||
+                       fabsf(vn.y) > kRunawaySpeed || fabsf(vn.z) > kRunawaySpeed;
+  s.flags[i] = runaway ? kFlagBlowup : 0u;
 }
 
 // Responds to the velocity ray's hit and prepares each vertex's second ray.
@@ -62,8 +101,7 @@ RC_HD void stage_respond_velocity(const StepView& s, uint32_t i) {
   next.vertex = r.vertex;
   if (r.tmax > 0.0f && respond(r, c, s.coll, s.v_next[i], s.x_next[i])) {
     s.contact_normal[i] = c.normal;
-    // The response moved the vertex: that move must not carry it through another surface (a
-    // cloth layer lying on the obstacle it was pushed out of), so it is cast again.
+    // The response moved the vertex: that move is cast again, so that it sees a second surface.
     next = velocity_ray(s.x[i], s.x_next[i], r.vertex, s.coll);
   } else if (s.model.inv_mass[i] != 0.0f) {
     next = contact_ray(s.x[i], last, r.vertex, s.coll);
@@ -71,75 +109,192 @@ RC_HD void stage_respond_velocity(const StepView& s, uint32_t i) {
   s.rays[i] = next;
 }
 
-// Responds to the second ray's hit and, when that moved the vertex, prepares the third ray along
-// its whole move; then checks the new state. Returns false on a blow-up.
-RC_HD bool stage_respond_contact(const StepView& s, uint32_t i) {
+// Responds to the second ray's hit. Returns 1 when the vertex has an entry in the collision buffer.
+RC_HD uint32_t stage_respond_contact(const StepView& s, uint32_t i) {
   const Ray r = s.rays[i];
-  Ray third;
-  third.vertex = r.vertex;
   if (r.tmax > 0.0f && s.hits[i].kind != kHitNone) {
     const Contact c = make_contact(r, s.hits[i], s.geom);
     if (s.contacts[i].w < 0.0f) s.contacts[i] = c;
-    if (respond(r, c, s.coll, s.v_next[i], s.x_next[i])) {
-      s.contact_normal[i] = c.normal;
-      third = velocity_ray(s.x[i], s.x_next[i], r.vertex, s.coll);
+    if (respond(r, c, s.coll, s.v_next[i], s.x_next[i])) s.contact_normal[i] = c.normal;
+  }
+  return s.contacts[i].w >= 0.0f ? 1u : 0u;
+}
+
+// The nearest point of the obstacles (at t + dt) to p within `reach`. Among triangles equally near
+// (p nearest to a shared edge or vertex) the one whose plane p lies most squarely in front of or
+// behind wins, so that the side (inside or outside) is read off the right face; then the lowest id.
+struct ObstaclePoint {
+  bool found = false;
+  uint32_t prim = 0;
+  DVec3 point;
+  double dist2 = 0;
+  double squareness = -1;  // |cos| between the face normal and p - point
+  double wa = 1, wb = 0, wc = 0;
+};
+
+RC_HD ObstaclePoint nearest_obstacle_point(const StepView& s, Vec3 p, float reach) {
+  ObstaclePoint best;
+  const Vec3* ov = s.geom.obstacle_vertices;
+  const uint32_t* oi = s.geom.obstacle_indices;
+  const DVec3 dp = dvec(p);
+  Aabb query = aabb_grow(point_box(p), reach);
+  double limit2 = double(reach) * double(reach);
+  bvh_for_each_overlap(s.obstacle_bvh, query, [&](uint32_t t) {
+    const DVec3 a = dvec(ov[oi[3 * t]]), b = dvec(ov[oi[3 * t + 1]]), c = dvec(ov[oi[3 * t + 2]]);
+    const TrianglePoint q = closest_on_triangle(dp, a, b, c);
+    if (q.dist2 > limit2) return;
+    const DVec3 point = a * q.wa + b * q.wb + c * q.wc;
+    const DVec3 e1 = b - a, e2 = c - a;
+    const DVec3 n{e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z, e1.x * e2.y - e1.y * e2.x};
+    const DVec3 d = dp - point;
+    const double nn = ddot(n, n), dd = ddot(d, d);
+    const double square = nn > 0.0 && dd > 0.0 ? fabs(ddot(n, d)) / sqrt(nn * dd) : 0.0;
+    const double tie = 1e-12 + 1e-9 * q.dist2;
+    bool take = !best.found || q.dist2 < best.dist2 - tie;
+    if (!take && q.dist2 <= best.dist2 + tie)
+      take = square > best.squareness + 1e-12 || (square >= best.squareness - 1e-12 && t < best.prim);
+    if (!take) return;
+    best.found = true;
+    best.prim = t;
+    best.point = point;
+    best.dist2 = q.dist2;
+    best.squareness = square;
+    best.wa = q.wa, best.wb = q.wb, best.wc = q.wc;
+  });
+  return best;
+}
+
+// Obstacles at t + dt: a vertex inside, or nearer than the thickness, goes to the thickness outside
+// the nearest surface point and loses its velocity into the surface relative to the surface's own
+// velocity there (friction on the rest).
+RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
+  if (!is_representative(s.model, i)) return;
+  Vec3& xn = s.x_next[i];
+  if (s.model.inv_mass[i] != 0.0f && s.obstacle_bvh.num_prims > 0 && is_finite(xn)) {
+    // A vertex outside at t can be at most its own move plus the obstacle's move inside at t + dt.
+    const float reach = s.coll.thickness + length(xn - s.x[i]) + s.obstacle_reach;
+    const ObstaclePoint q = nearest_obstacle_point(s, xn, reach);
+    if (q.found) {
+      const uint32_t* t = s.geom.obstacle_indices + 3 * q.prim;
+      const Vec3 face = triangle_normal(s.geom.obstacle_vertices, s.geom.obstacle_indices, q.prim);
+      const DVec3 d = dvec(xn) - q.point;
+      const double dist = sqrt(q.dist2);
+      const bool inside = ddot(d, dvec(face)) < 0.0;
+      Vec3 out = face;  // outward direction from the surface point
+      if (dist > 1e-9) {
+        const double k = (inside ? -1.0 : 1.0) / dist;
+        out = make_vec3(float(d.x * k), float(d.y * k), float(d.z * k));
+      }
+      if (inside || dist < double(s.coll.thickness)) {
+        const Vec3 surface = make_vec3(float(q.point.x), float(q.point.y), float(q.point.z));
+        xn = surface + out * s.coll.thickness;
+        Vec3 u = make_vec3(0, 0, 0);
+        if (s.geom.obstacle_velocities) {
+          const Vec3* ovel = s.geom.obstacle_velocities;
+          u = ovel[t[0]] * float(q.wa) + ovel[t[1]] * float(q.wb) + ovel[t[2]] * float(q.wc);
+        }
+        s.v_next[i] = contact_velocity(s.v_next[i], out, u, s.coll.friction);
+        s.contact_normal[i] = out;
+        s.flags[i] |= kFlagPushed;
+        if (s.contacts[i].w < 0.0f) {
+          s.contacts[i].normal = out;
+          s.contacts[i].w = float(dist);
+          s.contacts[i].surface_velocity = u;
+        }
+      }
     }
   }
-  s.rays[i] = third;
-  const Vec3 xn = s.x_next[i];
-  return is_finite(xn) && is_finite(s.v_next[i]) && fabsf(xn.x) < s.blowup_limit && fabsf(xn.y) < s.blowup_limit &&
-         fabsf(xn.z) < s.blowup_limit;
 }
 
-// The second response's move must not cross a surface either: it stops a thickness short. Leaving
-// an obstacle through its back face is always allowed (the vertex was inside).
-RC_HD void stage_certify(const StepView& s, uint32_t i) {
-  const Ray r = s.rays[i];
-  if (!(r.tmax > 0.0f) || s.hits[i].kind == kHitNone) return;
-  const Contact c = make_contact(r, s.hits[i], s.geom);
-  if (s.hits[i].kind == kHitObstacle && dot(c.normal, r.dir) > 0.0f) return;
-  clamp_move(r, c, s.coll, s.x[i], s.v_next[i], s.x_next[i]);
-}
+// How far a feature may have to look: a pair farther apart than (largest move of its corners +
+// slack) / kBoundFactor cannot limit that feature's move, whatever the other side does, because the
+// other side bounds itself by the same rule.
+RC_HD float move_of(const StepView& s, uint32_t i) { return length(s.x_next[i] - s.x[i]); }
+RC_HD float query_radius(float move) { return (move + 2.0f * kBoundSlack) / kBoundFactor; }
 
-// Crossing guard, per edge: a ray from one end to the other at the new positions. The triangles of
-// either end are skipped (an edge meets them at its ends, and a tight fold is not a crossing).
-RC_HD void stage_edge_ray(const StepView& s, uint32_t e) {
-  const uint32_t a = s.model.edges[2 * e], b = s.model.edges[2 * e + 1];
-  Ray r;
-  r.vertex = s.model.alias[a];
-  r.vertex2 = s.model.alias[b];
-  const Vec3 d = s.x_next[b] - s.x_next[a];
-  const float len = length(d);
-  if (len > 1e-9f) {
-    r.org = s.x_next[a];
-    r.dir = d / len;
-    r.tmax = len;
+// Bound, per triangle t, for its own corners only: every cloth triangle t2 near t is measured
+// feature by feature, pairs that share a vertex left out: each corner of t against t2 (bounds that
+// corner), each corner of t2 against t (bounds all three corners of t), and each edge of t against
+// each edge of t2 (bounds that edge's ends). An edge is measured through the lowest-numbered
+// triangle that holds it, on both sides. t2 does the same for its corners, so every pair of
+// features is seen from both sides, each within its own radius.
+RC_HD void stage_bound(const StepView& s, uint32_t t) {
+  const uint32_t* tri = s.model.triangles;
+  const Vec3* x = s.x;
+  const uint32_t v[3] = {tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]};
+  const float radius = query_radius(max_of(move_of(s, v[0]), max_of(move_of(s, v[1]), move_of(s, v[2]))));
+  const DVec3 p[3] = {dvec(x[v[0]]), dvec(x[v[1]]), dvec(x[v[2]])};
+  const uint32_t owned = s.model.tri_edge_owner[t];
+  Aabb query = aabb_grow(aabb_union(segment_box(x[v[0]], x[v[1]]), point_box(x[v[2]])), radius);
+  float corner[3] = {INFINITY, INFINITY, INFINITY};
+  float face = INFINITY;
+  bvh_for_each_overlap(s.cloth_bvh, query, [&](uint32_t t2) {
+    if (t2 == t) return;
+    const uint32_t w[3] = {tri[3 * t2], tri[3 * t2 + 1], tri[3 * t2 + 2]};
+    const DVec3 q[3] = {dvec(x[w[0]]), dvec(x[w[1]]), dvec(x[w[2]])};
+    const Aabb box2 = aabb_grow(aabb_union(segment_box(x[w[0]], x[w[1]]), point_box(x[w[2]])), radius);
+    auto in_t = [&](uint32_t k) { return k == v[0] || k == v[1] || k == v[2]; };
+    auto in_t2 = [&](uint32_t k) { return k == w[0] || k == w[1] || k == w[2]; };
+    // Box tests first: a feature pair whose boxes are apart by the radius cannot be nearer.
+    for (int k = 0; k < 3; ++k) {
+      if (!in_t2(v[k]) && aabb_overlap(box2, point_box(x[v[k]])))
+        corner[k] = min_of(corner[k], float(sqrt(closest_on_triangle(p[k], q[0], q[1], q[2]).dist2)));
+      if (!in_t(w[k]) && aabb_overlap(query, point_box(x[w[k]])))
+        face = min_of(face, float(sqrt(closest_on_triangle(q[k], p[0], p[1], p[2]).dist2)));
+    }
+    const uint32_t owned2 = s.model.tri_edge_owner[t2];
+    for (int k = 0; k < 3; ++k) {
+      if (!(owned & (1u << k))) continue;
+      const uint32_t a = v[k], b = v[(k + 1) % 3];
+      for (int l = 0; l < 3; ++l) {
+        if (!(owned2 & (1u << l))) continue;
+        const uint32_t c = w[l], d = w[(l + 1) % 3];
+        if (c == a || c == b || d == a || d == b) continue;
+        if (!aabb_overlap(aabb_grow(segment_box(x[a], x[b]), radius), segment_box(x[c], x[d]))) continue;
+        const float dist = float(sqrt(segment_segment_dist2(p[k], p[(k + 1) % 3], q[l], q[(l + 1) % 3])));
+        corner[k] = min_of(corner[k], dist);
+        corner[(k + 1) % 3] = min_of(corner[(k + 1) % 3], dist);
+      }
+    }
+  });
+  for (int k = 0; k < 3; ++k) {
+    const float d = min_of(corner[k], face);
+    if (d < radius) atomic_min_nonneg(&s.bound[v[k]], d);
   }
-  s.edge_rays[e] = r;
 }
 
-// Crossing guard, per edge: an edge through a cloth triangle marks its two ends and the triangle's
-// corners. Every writer stores the same value, so the result does not depend on thread order.
-RC_HD bool stage_edge_mark(const StepView& s, uint32_t e) {
-  const RawHit h = s.edge_hits[e];
-  if (h.kind != kHitCloth) return false;
-  s.frozen[s.model.edges[2 * e]] = 1u;
-  s.frozen[s.model.edges[2 * e + 1]] = 1u;
-  const uint32_t* t = s.model.triangles + 3 * h.prim;
-  s.frozen[t[0]] = 1u;
-  s.frozen[t[1]] = 1u;
-  s.frozen[t[2]] = 1u;
-  return true;
+// Clamp: the vertex moves at most kBoundFactor of its bound, along its own move; its velocity
+// shrinks in proportion. Returns 1 when it shortened the move.
+RC_HD uint32_t stage_clamp(const StepView& s, uint32_t i) {
+  if (!is_representative(s.model, i) || s.model.inv_mass[i] == 0.0f) return 0u;
+  const float allowed = fmaxf(0.0f, kBoundFactor * float_from_bits(s.bound[i]) - kBoundSlack);
+  const Vec3 move = s.x_next[i] - s.x[i];
+  const float len = length(move);
+  if (!(len > allowed)) return 0u;
+  const float k = allowed / len;
+  s.x_next[i] = s.x[i] + move * k;
+  s.v_next[i] *= k;
+  s.flags[i] |= kFlagClamped;
+  return 1u;
 }
 
-// Crossing guard, per vertex: a marked vertex goes back to where it was at the start of the step and
-// stops. Returns true when it did.
-RC_HD bool stage_freeze(const StepView& s, uint32_t i) {
-  if (s.frozen[i] == 0u) return false;
-  s.frozen[i] = 0u;
-  s.x_next[i] = s.x[i];
-  s.v_next[i] = make_vec3(0, 0, 0);
-  return true;
+// A vertex an obstacle pushed out and the bound then held back may still be inside the obstacle:
+// cloth on both sides of it left no room. Counted, and reported by the run.
+RC_HD uint32_t stage_conflict(const StepView& s, uint32_t i) {
+  return (s.flags[i] & (kFlagPushed | kFlagClamped)) == (kFlagPushed | kFlagClamped) ? 1u : 0u;
+}
+
+// Seam partners are one vertex: every partner takes its representative's state. Returns false on a
+// blow-up (a non-finite or runaway position or velocity).
+RC_HD bool stage_finish(const StepView& s, uint32_t i) {
+  const uint32_t r = s.model.alias[i];
+  if (r != i) {
+    s.x_next[i] = s.x_next[r];
+    s.v_next[i] = s.v_next[r];
+  }
+  const Vec3 xn = s.x_next[i];
+  return !(s.flags[r] & kFlagBlowup) && is_finite(xn) && is_finite(s.v_next[i]) && fabsf(xn.x) < s.blowup_limit && fabsf(xn.y) < s.blowup_limit &&
+         fabsf(xn.z) < s.blowup_limit;
 }
 
 }  // namespace raycloth

@@ -129,7 +129,6 @@ class EmbreeCollider final : public Collider {
   }
 
   void cast(const Ray* rays, size_t count, RawHit* hits) override { cast_into(rays, count, hits, obstacles_); }
-  void cast_cloth(const Ray* rays, size_t count, RawHit* hits) override { cast_into(rays, count, hits, nullptr); }
 
  private:
   void cast_into(const Ray* rays, size_t count, RawHit* hits, RTCScene obstacles) {
