@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 
 packages=(cmake ninja-build g++ pkg-config libembree-dev libtbb-dev nlohmann-json3-dev libcli11-dev
           libtinyobjloader-dev libspdlog-dev libfmt-dev libstb-dev libtinygltf-dev libgtest-dev
-          libbenchmark-dev ffmpeg)
+          libbenchmark-dev libcgal-dev ffmpeg)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

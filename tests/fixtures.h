@@ -1,6 +1,12 @@
 // Small scenes built in code for the tests.
 #pragma once
+#include <fmt/format.h>
+
+#include <string>
+
+#include "check/state_check.h"
 #include "raycloth/scene.h"
+#include "raycloth/simulator.h"
 
 namespace raycloth::test {
 
@@ -57,6 +63,23 @@ inline ObstacleDef plane_obstacle(float size, Float3 at) {
   o.size = {size, 1, size};
   o.transform.position = at;
   return o;
+}
+
+// The exact check (check/exact_check.h) of the simulator's state now.
+inline CheckReport exact_check(Simulator& sim) {
+  return check_state(cloth_check_mesh(sim.model(), sim.positions()),
+                     obstacle_check_mesh(sim.obstacles(), sim.obstacle_vertices()));
+}
+
+// Steps n times and checks exactly after every `every` steps: "" when every check was clean,
+// else the step and what the first unclean check found.
+inline std::string step_checked(Simulator& sim, int n, int every = 1) {
+  for (int k = 0; k < n; k += every) {
+    sim.step(std::min(every, n - k));
+    const CheckReport r = exact_check(sim);
+    if (!r.clean()) return fmt::format("after step {}: {}", sim.steps(), describe(r));
+  }
+  return "";
 }
 
 }  // namespace raycloth::test

@@ -8,15 +8,19 @@
 namespace raycloth {
 
 std::vector<Vec3> cloth_vertex_normals(const ClothModel& model, const std::vector<Vec3>& x) {
+  // Over the welded triangles, so that a seam is smooth; seam followers take their
+  // representative's normal.
   std::vector<Vec3> n(x.size(), make_vec3(0, 0, 0));
-  for (size_t t = 0; t < model.triangles.size(); t += 3) {
-    const uint32_t a = model.triangles[t], b = model.triangles[t + 1], c = model.triangles[t + 2];
+  const std::vector<uint32_t>& tri = model.collision_triangles;
+  for (size_t t = 0; t < tri.size(); t += 3) {
+    const uint32_t a = tri[t], b = tri[t + 1], c = tri[t + 2];
     const Vec3 fn = cross(x[b] - x[a], x[c] - x[a]);
     n[a] += fn;
     n[b] += fn;
     n[c] += fn;
   }
   for (auto& v : n) v = normalize_or_zero(v);
+  for (size_t i = 0; i < n.size(); ++i) n[i] = n[model.alias[i]];
   return n;
 }
 
@@ -26,17 +30,27 @@ void put(std::ostream& out, const std::string& s) { out.write(s.data(), std::str
 
 void write_cloth_obj(const std::filesystem::path& path, const ClothModel& model, const std::vector<Vec3>& x) {
   const std::vector<Vec3> n = cloth_vertex_normals(model, x);
+  // Seam partners are one simulated vertex (model.alias): written once, so that the file shows the
+  // sewn surface and `raycloth check` sees the triangles on either side of a seam as neighbours.
+  std::vector<uint32_t> index(x.size(), 0);
+  uint32_t written = 0;
+  for (uint32_t i = 0; i < x.size(); ++i)
+    if (model.alias[i] == i) index[i] = ++written;
   write_file_atomically(path, [&](std::ostream& out) {
     fmt::memory_buffer buf;
-    fmt::format_to(std::back_inserter(buf), "# raycloth cloth frame: {} vertices, {} triangles\n", x.size(),
+    fmt::format_to(std::back_inserter(buf), "# raycloth cloth frame: {} vertices, {} triangles\n", written,
                    model.num_triangles());
-    for (const Vec3& p : x) fmt::format_to(std::back_inserter(buf), "v {:.6f} {:.6f} {:.6f}\n", p.x, p.y, p.z);
-    for (const Vec3& p : n) fmt::format_to(std::back_inserter(buf), "vn {:.5f} {:.5f} {:.5f}\n", p.x, p.y, p.z);
+    // 12 significant digits: every float reads back as itself, so a check of this file sees
+    // exactly the simulated state.
+    for (uint32_t i = 0; i < x.size(); ++i)
+      if (model.alias[i] == i) fmt::format_to(std::back_inserter(buf), "v {:.12g} {:.12g} {:.12g}\n", x[i].x, x[i].y, x[i].z);
+    for (uint32_t i = 0; i < x.size(); ++i)
+      if (model.alias[i] == i) fmt::format_to(std::back_inserter(buf), "vn {:.5f} {:.5f} {:.5f}\n", n[i].x, n[i].y, n[i].z);
     for (const Piece& piece : model.pieces) {
       fmt::format_to(std::back_inserter(buf), "o {}\n", piece.name);
       for (uint32_t t = piece.first_triangle; t < piece.first_triangle + piece.num_triangles; ++t) {
-        const uint32_t a = model.triangles[3 * t] + 1, b = model.triangles[3 * t + 1] + 1,
-                       c = model.triangles[3 * t + 2] + 1;
+        const uint32_t a = index[model.alias[model.triangles[3 * t]]], b = index[model.alias[model.triangles[3 * t + 1]]],
+                       c = index[model.alias[model.triangles[3 * t + 2]]];
         fmt::format_to(std::back_inserter(buf), "f {}//{} {}//{} {}//{}\n", a, a, b, b, c, c);
       }
     }
@@ -49,7 +63,7 @@ void write_obstacles_obj(const std::filesystem::path& path, const ObstacleSet& o
   write_file_atomically(path, [&](std::ostream& out) {
     fmt::memory_buffer buf;
     fmt::format_to(std::back_inserter(buf), "# raycloth obstacles in world space\n");
-    for (const Vec3& p : world) fmt::format_to(std::back_inserter(buf), "v {:.6f} {:.6f} {:.6f}\n", p.x, p.y, p.z);
+    for (const Vec3& p : world) fmt::format_to(std::back_inserter(buf), "v {:.12g} {:.12g} {:.12g}\n", p.x, p.y, p.z);
     for (size_t o = 0; o < obstacles.names.size(); ++o) {
       fmt::format_to(std::back_inserter(buf), "o {}\n", obstacles.names[o]);
       const size_t first = obstacles.first_triangle[o];

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "collide/cpu/inspect.h"
+#include "check/exact_check.h"
 #include "raycloth/simulator.h"
 
 namespace raycloth {
@@ -23,6 +23,19 @@ struct FrameRecord {
   uint64_t pushed = 0;          // vertex-steps an obstacle pushed out since the previous frame
   double kinetic_energy = 0;    // J
   double steps_per_second = 0;  // wall-clock rate over the frame's steps
+  // The exact check of this frame (check/exact_check.h); -1 when the run was asked not to check.
+  long crossings = -1;          // cloth edges through cloth triangles
+  long vertices_inside = -1;    // cloth vertices strictly inside an obstacle
+};
+
+// The exact check over every written frame.
+struct RunCheck {
+  bool enabled = true;
+  size_t frames_checked = 0, bad_frames = 0;
+  int first_bad_frame = -1;
+  size_t max_crossings = 0, max_vertices_inside = 0;
+  std::string first_problem;  // describe() of the first bad frame
+  size_t closed_obstacles = 0, open_obstacles = 0;
 };
 
 // Receives every output frame (frame 0 is the initial state). Writers of further formats and the
@@ -45,6 +58,7 @@ struct RunOptions {
   // Mesh formats (kOutputFormats): overrides the scene's output.formats.
   std::optional<std::vector<std::string>> formats;
   bool write_obj = true;  // false: no OBJ frames even when the formats name obj
+  bool check = true;      // the exact check of every frame (run.json's "check")
 };
 
 struct RunReport {
@@ -56,7 +70,7 @@ struct RunReport {
   double steps_per_second = 0;
   StageTimes stages;
   std::vector<FrameRecord> frames;
-  PenetrationReport final_check;
+  RunCheck check;
   std::vector<std::string> outputs;  // files written, relative to the output folder (* for frame numbers)
   std::string error;  // set when the run stopped on a SimulationError
 };

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 
+#include "check/state_check.h"
 #include "raycloth/error.h"
 #include "sim/backend.h"
 #include "sim/model.h"
@@ -17,6 +18,8 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
   validate_scene(scene_);
   model_ = std::make_unique<ClothModel>(build_cloth_model(scene_));
   obstacles_ = std::make_unique<ObstacleSet>(build_obstacles(scene_));
+  // The displacement bound keeps apart what starts apart; it cannot undo a crossing.
+  refuse_crossing_start(*model_, scene_.source);
 
   const double t0 = model_->natural_period();
   if (scene_.time.dt >= t0) {

@@ -1,0 +1,38 @@
+// The exact check (check/exact_check.h) applied to a simulator's state and to an output folder.
+#pragma once
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "check/exact_check.h"
+#include "sim/model.h"
+
+namespace raycloth {
+
+// The cloth as the check sees it: the welded triangles (seam partners are one vertex), one group
+// per panel.
+CheckMesh cloth_check_mesh(const ClothModel& model, const std::vector<Vec3>& positions);
+// All obstacles in world space, one group per obstacle.
+CheckMesh obstacle_check_mesh(const ObstacleSet& obstacles, const std::vector<Vec3>& world_vertices);
+
+// Throws InputError(scene file, "/panels", ...) naming the panels when the cloth's starting state
+// already has an edge through a triangle.
+void refuse_crossing_start(const ClothModel& model, const std::string& scene_file);
+
+// An output folder as `raycloth run` writes it: frames/cloth_NNNN.obj, obstacles.obj and, for
+// moving obstacles, frames/obstacles_NNNN.obj.
+struct FolderFrameCheck {
+  int frame = 0;
+  CheckReport report;
+};
+struct FolderCheck {
+  std::vector<FolderFrameCheck> frames;
+  size_t bad_frames() const;
+};
+// Throws InputError naming the file when the folder has no frames or a file cannot be read.
+// on_frame (optional) sees each frame as it is checked.
+FolderCheck check_output_folder(const std::filesystem::path& dir,
+                                const std::function<void(const FolderFrameCheck&)>& on_frame = {});
+
+}  // namespace raycloth
