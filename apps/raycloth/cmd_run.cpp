@@ -92,12 +92,14 @@ Action add_run_command(CLI::App& app) {
       if (!args->quiet) {
         std::cout << fmt::format(
             "{}: {} steps, {:.3f} s simulated in {:.2f} s: {:.0f} steps/s on {}\n"
-            "stages per step: forces+integration {:.3f} ms, update {:.3f} ms, rays {:.3f} ms, response {:.3f} ms\n"
+            "stages per step: forces+integration {:.3f} ms, update {:.3f} ms, rays {:.3f} ms, response {:.3f} ms, "
+            "bound {:.3f} ms (recomputed in {:.1f} % of steps)\n"
             "{}\n"
             "wrote {} frames to {}: {}\n",
             r.scene, r.steps, r.simulated_time, r.wall_time, r.steps_per_second, r.device,
             1e3 * r.stages.integrate / r.steps, 1e3 * r.stages.update / r.steps, 1e3 * r.stages.cast / r.steps,
-            1e3 * r.stages.respond / r.steps, check_line(r.check), r.frames.size(), args->out,
+            1e3 * r.stages.respond / r.steps, 1e3 * r.stages.bound / r.steps,
+            r.steps ? 100.0 * double(r.bound_refreshes) / double(r.steps) : 0.0, check_line(r.check), r.frames.size(), args->out,
             fmt::join(r.outputs, ", "));
         if (render) std::cout << fmt::format("wrote {}/images/frame_*.png ({} frames)\n", args->out, r.frames.size());
       }

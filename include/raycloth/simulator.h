@@ -60,6 +60,8 @@ class Simulator {
   uint64_t pushed_total() const { return pushed_total_; }
   uint64_t clamped_total() const { return clamped_total_; }
   uint64_t conflicts_total() const { return conflicts_total_; }
+  // Steps that recomputed the displacement bound (the others reuse the last one).
+  uint64_t bound_refreshes() const { return refreshes_total_; }
   const StageTimes& stage_times() const { return times_; }
 
  private:
@@ -69,7 +71,7 @@ class Simulator {
   std::unique_ptr<Backend> backend_;
   std::vector<Vec3> x_, v_;
   bool synced_ = true;
-  uint64_t steps_ = 0, last_hits_ = 0, pushed_total_ = 0, clamped_total_ = 0, conflicts_total_ = 0;
+  uint64_t steps_ = 0, last_hits_ = 0, pushed_total_ = 0, clamped_total_ = 0, conflicts_total_ = 0, refreshes_total_ = 0;
   StageTimes times_;
 };
 

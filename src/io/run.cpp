@@ -142,7 +142,8 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
   j["frames"] = frames;
   j["contact"] = {{"pushed_by_obstacles", sim.pushed_total()},
                   {"clamped_by_bound", sim.clamped_total()},
-                  {"obstacle_conflicts", sim.conflicts_total()}};
+                  {"obstacle_conflicts", sim.conflicts_total()},
+                  {"bound_refreshes", sim.bound_refreshes()}};
   if (r.check.enabled) {
     j["check"] = {{"method", "exact: every cloth edge against every cloth triangle sharing no vertex (CGAL filtered "
                              "exact orientation predicates); every cloth vertex against every obstacle (closed: "
@@ -234,6 +235,7 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
     report.steps = sim.steps();
     report.simulated_time = sim.time();
     report.stages = sim.stage_times();
+    report.bound_refreshes = sim.bound_refreshes();
     report.steps_per_second = report.wall_time > 0 ? double(report.steps) / report.wall_time : 0.0;
     const nlohmann::json j = report_json(report, sim);
     write_file_atomically(opt.out_dir / "run.json", [&](std::ostream& out) { out << j.dump(2) << "\n"; });

@@ -69,6 +69,7 @@ struct RunReport {
   double wall_time = 0;  // seconds spent stepping (output excluded)
   double steps_per_second = 0;
   StageTimes stages;
+  uint64_t bound_refreshes = 0;  // steps that recomputed the displacement bound
   std::vector<FrameRecord> frames;
   RunCheck check;
   std::vector<std::string> outputs;  // files written, relative to the output folder (* for frame numbers)

@@ -33,7 +33,9 @@ class CpuBackend final : public Backend {
     hits_.resize(n);
     contacts_.resize(n);
     contact_normal_.assign(n, make_vec3(0, 0, 0));
-    bound_.assign(n, 0u);
+    bound_.assign(n, 0u);  // allowance 0: the first step that moves anything refreshes the bound
+    bound_radius_.assign(n, 0.0f);
+    x_ref_ = x_;
     flags_.assign(n, 0u);
     obstacles_.pose_at(0.0, obstacle_x_, obstacle_v_);
     collider_->set_obstacles(obstacle_x_.data(), obstacle_x_.size(), obstacles_.world.indices.data(),
@@ -57,6 +59,7 @@ class CpuBackend final : public Backend {
       result.pushed += counters_.pushed;
       result.clamped += counters_.clamped;
       result.conflicts += counters_.conflicts;
+      result.refreshes += counters_.refresh > 0 ? 1u : 0u;
       if (counters_.bad_vertex != 0xFFFFFFFFu) {
         result.bad_vertex = counters_.bad_vertex;
         result.bad_step = step_index;
@@ -81,9 +84,6 @@ class CpuBackend final : public Backend {
       refit_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.world.indices.data());
     }
     collider_->update_cloth(x_.data());
-    refit_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data());
-    if (bvh_needs_rebuild(bvh_area(cloth_bvh_.view()), cloth_bvh_.built_area))
-      build_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data(), model_.num_triangles());
     counters_ = StepCounters();
     StepView s = view();
     add_time(Stage::Update, t);
@@ -132,6 +132,15 @@ class CpuBackend final : public Backend {
     add_time(Stage::Cast, t);
   }
 
+  void refit_cloth(const StepCounters* c) {
+    if (c->refresh == 0u) return;
+    const auto t = Clock::now();
+    refit_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data());
+    if (bvh_needs_rebuild(bvh_area(cloth_bvh_.view()), cloth_bvh_.built_area))
+      build_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data(), model_.num_triangles());
+    add_time(Stage::Update, t);
+  }
+
   void end() {
     std::swap(x_, x_next_);
     std::swap(v_, v_next_);
@@ -167,6 +176,10 @@ class CpuBackend final : public Backend {
     s.contacts = contacts_.data();
     s.contact_normal = contact_normal_.data();
     s.bound = bound_.data();
+    s.bound_radius = bound_radius_.data();
+    s.x_ref = x_ref_.data();
+    s.bound_age = &bound_age_;
+    s.mean_edge = model_.mean_edge;
     s.flags = flags_.data();
     s.obstacle_bvh = obstacle_bvh_.view();
     s.cloth_bvh = cloth_bvh_.view();
@@ -188,14 +201,16 @@ class CpuBackend final : public Backend {
   const ClothModel& model_;
   const ObstacleSet& obstacles_;
   std::unique_ptr<Collider> collider_;
-  std::vector<Vec3> x_, v_, x_next_, v_next_, contact_normal_;
+  std::vector<Vec3> x_, v_, x_next_, v_next_, contact_normal_, x_ref_;
   std::vector<Vec3> obstacle_x_, obstacle_v_;
   std::vector<Ray> rays_;
   std::vector<RawHit> hits_;
   std::vector<Contact> contacts_;
   std::vector<uint32_t> bound_, flags_;
+  std::vector<float> bound_radius_;
   HostBvh obstacle_bvh_, cloth_bvh_;
   StepCounters counters_;
+  uint32_t bound_age_ = 0;
   StageTimes* times_ = nullptr;
 };
 

@@ -112,6 +112,7 @@ class CudaBackend final : public Backend {
       result.pushed += c.pushed;
       result.clamped += c.clamped;
       result.conflicts += c.conflicts;
+      result.refreshes += c.refresh > 0 ? 1u : 0u;
       if (c.bad_vertex != 0xFFFFFFFFu) {
         result.bad_vertex = c.bad_vertex;
         result.bad_step = step_index;
@@ -149,13 +150,7 @@ class CudaBackend final : public Backend {
       CUDA_CHECK_LAUNCH();
       obstacle_tree_.refit(obstacle_x_.data(), obstacle_indices_.data(), stream_);
     }
-    if (cloth_.num_prims() > 0) {
-      cloth_.refit(x_[cur_].data(), cloth_indices_.data(), stream_);
-      if (++refits_since_build_ >= kRebuildEvery) {
-        cloth_.build(x_[cur_].data(), cloth_indices_.data(), stream_);
-        refits_since_build_ = 0;
-      }
-    }
+    refit_cloth_tree();
     k_reset_counters<<<1, 1, 0, stream_>>>(counters_.data());
     CUDA_CHECK_LAUNCH();
     return view();
@@ -187,12 +182,25 @@ class CudaBackend final : public Backend {
     CUDA_CHECK_LAUNCH();
   }
 
+  // The cloth tree serves the rays as well as the bound, so it is refit every step anyway: nothing
+  // more to do when the bound is recomputed (the flag lives in device memory).
+  void refit_cloth(const StepCounters*) {}
+
   void end() { cur_ ^= 1; }
 
  private:
   // The cloth tree is refit every step and rebuilt every kRebuildEvery steps (the CPU rebuilds on
   // the area trigger; the GPU avoids reading the area back inside a call).
   static constexpr int kRebuildEvery = 256;
+
+  void refit_cloth_tree() {
+    if (cloth_.num_prims() == 0) return;
+    cloth_.refit(x_[cur_].data(), cloth_indices_.data(), stream_);
+    if (++refits_since_build_ >= kRebuildEvery) {
+      cloth_.build(x_[cur_].data(), cloth_indices_.data(), stream_);
+      refits_since_build_ = 0;
+    }
+  }
 
   // Model, state and trees to the device, once.
   void upload() {
@@ -220,8 +228,12 @@ class CudaBackend final : public Backend {
     rays_.resize(n);
     hits_.resize(n);
     contacts_.resize(n);
-    bound_.resize(n);
-    flags_.resize(n);
+    // Allowance 0 everywhere: the first step that moves anything recomputes the bound.
+    bound_ = DeviceBuffer<uint32_t>(std::vector<uint32_t>(n, 0u));
+    bound_radius_ = DeviceBuffer<float>(std::vector<float>(n, 0.0f));
+    x_ref_ = DeviceBuffer<Vec3>(m.initial_positions);
+    bound_age_ = DeviceBuffer<uint32_t>(std::vector<uint32_t>(1, 0u));
+    flags_ = DeviceBuffer<uint32_t>(std::vector<uint32_t>(n, 0u));
     counters_ = DeviceBuffer<StepCounters>(std::vector<StepCounters>(1));
 
     std::vector<Vec3> ox, ov;
@@ -311,6 +323,10 @@ class CudaBackend final : public Backend {
     s.contacts = contacts_.data();
     s.contact_normal = contact_normal_.data();
     s.bound = bound_.data();
+    s.bound_radius = bound_radius_.data();
+    s.x_ref = x_ref_.data();
+    s.bound_age = bound_age_.data();
+    s.mean_edge = model_.mean_edge;
     s.flags = flags_.data();
     s.obstacle_bvh = obstacle_tree_.view();
     s.cloth_bvh = cloth_.view();
@@ -348,7 +364,9 @@ class CudaBackend final : public Backend {
   DeviceBuffer<Ray> rays_;
   DeviceBuffer<RawHit> hits_;
   DeviceBuffer<Contact> contacts_;
-  DeviceBuffer<uint32_t> bound_, flags_;
+  DeviceBuffer<uint32_t> bound_, flags_, bound_age_;
+  DeviceBuffer<float> bound_radius_;
+  DeviceBuffer<Vec3> x_ref_;
   DeviceBuffer<StepCounters> counters_;
   DeviceBuffer<Vec3> obstacle_x_, obstacle_v_;
   DeviceBuffer<uint32_t> obstacle_indices_;

@@ -90,11 +90,23 @@ void weld_seams(ClothModel& m) {
       e.emplace_back(std::min(a, b), std::max(a, b));
       if (seen.insert(e.back()).second) m.tri_edge_owner[t / 3] |= uint8_t(1u << k);
     }
+  // Corner ownership (bits 3..5): the lowest-numbered triangle holding each vertex.
+  std::vector<char> has_owner(m.num_vertices(), 0);
+  for (size_t t = 0; t < m.collision_triangles.size(); t += 3)
+    for (int k = 0; k < 3; ++k) {
+      char& owned = has_owner[m.collision_triangles[t + k]];
+      if (!owned) owned = 1, m.tri_edge_owner[t / 3] |= uint8_t(1u << (3 + k));
+    }
   std::sort(e.begin(), e.end());
   e.erase(std::unique(e.begin(), e.end()), e.end());
   m.edges.clear();
   m.edges.reserve(2 * e.size());
-  for (const auto& [a, b] : e) m.edges.insert(m.edges.end(), {a, b});
+  double total = 0;
+  for (const auto& [a, b] : e) {
+    m.edges.insert(m.edges.end(), {a, b});
+    total += double(length(m.initial_positions[a] - m.initial_positions[b]));
+  }
+  m.mean_edge = e.empty() ? 0.0f : float(total / double(e.size()));
 }
 
 }  // namespace

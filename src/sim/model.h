@@ -38,13 +38,14 @@ struct ModelView {
   const float* adj_k = nullptr;
   const float* adj_kd = nullptr;
   const uint32_t* alias = nullptr;       // vertices joined by a seam share one alias
-  const uint32_t* triangles = nullptr;   // 3 per collision triangle (cloth, then seam strips)
+  const uint32_t* triangles = nullptr;   // 3 per collision triangle (corners welded across seams)
   const uint32_t* tri_alias = nullptr;   // alias of each collision-triangle corner
   const uint32_t* edges = nullptr;       // 2 per edge of the cloth surface
   uint32_t num_edges = 0;
   uint32_t num_triangles = 0;            // collision triangles
   const uint8_t* tri_edge_owner = nullptr;  // per triangle: bit k set when it is the lowest-numbered
-                                            // triangle holding its edge k (corners k, k+1)
+                                            // triangle holding its edge k (corners k, k+1); bit 3 + k
+                                            // when it is the lowest-numbered one holding corner k
 };
 
 struct ClothModel {
@@ -57,12 +58,12 @@ struct ClothModel {
   std::vector<float> adj_rest, adj_k, adj_kd;
   std::vector<uint32_t> alias;
   std::vector<uint32_t> triangles;            // the cloth surface, 3 per triangle, panel by panel
-  // What the rays see: the cloth triangles followed by thin strips across each seam, so that a
-  // vertex cannot slip through the slit between two seamed panels; and their corners' aliases.
+  // What the rays and the bound see: `triangles` with every corner replaced by its seam
+  // representative (welded seams), and those corners' aliases.
   std::vector<uint32_t> collision_triangles, tri_alias;
-  // The edges of the cloth surface (`triangles`), each once, smaller vertex first: the crossing
-  // guard casts a ray along each of them.
+  // The edges of the welded surface (`collision_triangles`), each once, smaller vertex first.
   std::vector<uint32_t> edges;
+  float mean_edge = 0;  // mean length of `edges` at the start (metres): the bound's look-ahead scale
   std::vector<uint8_t> tri_edge_owner;  // see ModelView
 
   uint32_t num_vertices() const { return uint32_t(initial_positions.size()); }

@@ -63,6 +63,7 @@ void Simulator::step(int n) {
   pushed_total_ += r.pushed;
   clamped_total_ += r.clamped;
   conflicts_total_ += r.conflicts;
+  refreshes_total_ += r.refreshes;
   if (r.bad_vertex >= 0) {
     steps_ = r.bad_step + 1;
     const std::vector<Vec3>& x = positions();

@@ -11,12 +11,15 @@
 //   obstacles        the obstacles at t + dt: a vertex inside one, or nearer than the thickness,
 //                    goes to the thickness outside its nearest point and takes the surface's
 //                    velocity there (minus friction): a body moving into cloth at rest pushes it
-//   bound            per vertex, the distance at x to the nearest cloth feature it shares no vertex
-//                    with (vertex-triangle both ways, edge-edge), one query per triangle within a
-//                    radius set by its corners' moves
-//   clamp            each vertex moves at most kBoundFactor (< 1/2) of that distance: no two
-//                    features that are apart at x can meet during the step, so a step that starts
-//                    with no edge through cloth ends with none
+//   refresh?         a vertex whose proposed position leaves its allowance ball (centre x_ref,
+//                    radius kBoundFactor x its bound) asks for a new bound; one ask refreshes all
+//   bound            only on a refresh: x_ref <- x and, per vertex, the distance at x to the
+//                    nearest cloth feature it shares no vertex with (vertex-triangle both ways,
+//                    edge-edge), looked for within a per-vertex look-ahead radius
+//   clamp            each vertex stays inside its ball: two features that were apart at x_ref
+//                    each stay within less than half their gap of where they were, so they cannot
+//                    have met at any time since, and a run that starts with no edge through cloth
+//                    never has one
 //   weld             seam partners take their representative's state
 //   check            blow-up test
 #pragma once
@@ -34,6 +37,15 @@ namespace raycloth {
 inline constexpr float kBoundFactor = 0.4f;
 // Absolute slack taken off every bound (metres): covers float rounding of the new position.
 inline constexpr float kBoundSlack = 1e-6f;
+// On a refresh each vertex looks for features within kBoundLookahead of its current move (scaled
+// by 1/kBoundFactor), at least kBoundMinRadius and at most kBoundMaxRadius mean cloth edges: a
+// bound that lasts this many steps at the present speed before the next refresh.
+inline constexpr float kBoundLookahead = 8.0f;
+inline constexpr float kBoundMinRadius = 0.05f;
+inline constexpr float kBoundMaxRadius = 1.5f;
+inline constexpr uint32_t kBoundMaxAge = 8;
+inline constexpr uint32_t kBoundCrowd = 16;
+inline constexpr float kBoundNear = 0.25f;
 
 // A velocity component past this (m/s) right after integration is a blow-up: the bound would
 // otherwise keep an unstable step's positions in range and hide it.
@@ -46,6 +58,9 @@ struct StepCounters {
   uint32_t pushed = 0;         // vertices pushed out of (or off) an obstacle at t + dt
   uint32_t clamped = 0;        // vertices whose move the bound shortened
   uint32_t conflicts = 0;      // vertices the bound kept from leaving an obstacle completely
+  uint32_t wants = 0;          // vertices whose proposed position left their ball
+  uint32_t wants_now = 0;      // of those, vertices whose ball no nearby feature limited
+  uint32_t refresh = 0;        // 1 when the bound was recomputed this step
   uint32_t bad_vertex = 0xFFFFFFFFu;  // smallest vertex that blew up
 };
 
@@ -63,7 +78,12 @@ struct StepView {
   RawHit* hits = nullptr;
   Contact* contacts = nullptr;     // the collision buffer, one entry per vertex
   Vec3* contact_normal = nullptr;  // last step's acting contact normal (0 = none), updated in place
-  uint32_t* bound = nullptr;       // per vertex: float bits of the nearest non-adjacent distance
+  // The displacement bound, kept across steps and refreshed when a vertex needs more room:
+  uint32_t* bound = nullptr;       // per vertex: float bits of the nearest non-adjacent distance at x_ref
+  float* bound_radius = nullptr;   // per vertex: how far that distance was looked for
+  Vec3* x_ref = nullptr;           // per vertex: position at the last refresh
+  uint32_t* bound_age = nullptr;   // steps since the last refresh (one value)
+  float mean_edge = 0;             // the cloth's mean edge length: the look-ahead scale
   uint32_t* flags = nullptr;       // per vertex: kFlagPushed when an obstacle pushed it this step
   BvhView obstacle_bvh;            // over geom.obstacle_indices at t + dt
   BvhView cloth_bvh;               // over model.triangles at x
@@ -75,6 +95,7 @@ inline constexpr uint32_t kFlagPushed = 1u;   // an obstacle pushed the vertex t
 inline constexpr uint32_t kFlagClamped = 2u;  // the bound shortened its move
 inline constexpr uint32_t kFlagBlowup = 4u;   // integration gave a non-finite or runaway velocity
 
+
 RC_HD bool is_representative(const ModelView& m, uint32_t i) { return m.alias[i] == i; }
 
 RC_HD void stage_integrate(const StepView& s, uint32_t i) {
@@ -82,7 +103,6 @@ RC_HD void stage_integrate(const StepView& s, uint32_t i) {
   s.contacts[i] = Contact();
   s.rays[i] = s.model.inv_mass[i] == 0.0f ? Ray() : velocity_ray(s.x[i], s.x_next[i], i, s.coll);
   s.rays[i].vertex = i;
-  s.bound[i] = bits_from_float(INFINITY);
   // Checked before any response or bound can hide it: an unstable time step shows here first.
   const Vec3 vn = s.v_next[i];
   const bool runaway = !is_finite(vn) || !is_finite(s.x_next[i]) || fabsf(vn.x) > kRunawaySpeed ||
@@ -206,74 +226,137 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
   }
 }
 
-// How far a feature may have to look: a pair farther apart than (largest move of its corners +
-// slack) / kBoundFactor cannot limit that feature's move, whatever the other side does, because the
-// other side bounds itself by the same rule.
-RC_HD float move_of(const StepView& s, uint32_t i) { return length(s.x_next[i] - s.x[i]); }
-RC_HD float query_radius(float move) { return (move + 2.0f * kBoundSlack) / kBoundFactor; }
+// The radius of vertex i's ball: kBoundFactor of the nearest non-adjacent distance at x_ref (or of
+// the radius it was looked for within, when nothing was nearer), less the slack.
+RC_HD float allowance_of(const StepView& s, uint32_t i) {
+  return fmaxf(0.0f, kBoundFactor * fminf(float_from_bits(s.bound[i]), s.bound_radius[i]) - kBoundSlack);
+}
 
-// Bound, per triangle t, for its own corners only: every cloth triangle t2 near t is measured
-// feature by feature, pairs that share a vertex left out: each corner of t against t2 (bounds that
-// corner), each corner of t2 against t (bounds all three corners of t), and each edge of t against
-// each edge of t2 (bounds that edge's ends). An edge is measured through the lowest-numbered
-// triangle that holds it, on both sides. t2 does the same for its corners, so every pair of
-// features is seen from both sides, each within its own radius.
+RC_HD bool is_free(const StepView& s, uint32_t i) {
+  return is_representative(s.model, i) && s.model.inv_mass[i] != 0.0f;
+}
+
+// 1 when vertex i's proposed position leaves its ball.
+RC_HD uint32_t stage_wants_refresh(const StepView& s, uint32_t i) {
+  if (!is_free(s, i)) return 0u;
+  const Vec3 x = s.x_next[i];
+  return is_finite(x) && length(x - s.x_ref[i]) > allowance_of(s, i) ? 1u : 0u;
+}
+// 1 when vertex i leaves a ball that a new bound would likely widen: one that its look-ahead
+// radius set (nothing nearer was found), or one that a feature farther than kBoundNear mean edges
+// set (its own panel's neighbours in a smooth region: they move with it). Balls set by a feature
+// nearer than that (a layer lying on it, a fold) wait for the next refresh.
+RC_HD uint32_t stage_wants_refresh_now(const StepView& s, uint32_t i) {
+  const float d = float_from_bits(s.bound[i]);
+  return d >= fminf(s.bound_radius[i], kBoundNear * s.mean_edge) ? stage_wants_refresh(s, i) : 0u;
+}
+
+// Whether this step recomputes the bound (one thread): when a vertex that moves freely needs more
+// room, when more than 1/kBoundCrowd of the vertices need more room, or when any does and the bound
+// is kBoundMaxAge steps old. Otherwise the few vertices that want more room, all held by a nearby
+// feature, stay in their balls (stage_clamp) for at most kBoundMaxAge - 1 steps.
+RC_HD void stage_decide_refresh(const StepView& s) {
+  StepCounters* c = s.counters;
+  const uint32_t age = *s.bound_age + 1u;
+  c->refresh = (c->wants_now > 0u || c->wants * kBoundCrowd > s.model.num_vertices ||
+                (c->wants > 0u && age >= kBoundMaxAge))
+                   ? 1u
+                   : 0u;
+  *s.bound_age = c->refresh ? 0u : age;
+}
+
+// On a refresh: the ball's centre moves to x and the look-ahead radius follows the vertex's move.
+RC_HD void stage_bound_reset(const StepView& s, uint32_t i) {
+  if (s.counters->refresh == 0u) return;
+  s.x_ref[i] = s.x[i];
+  s.bound[i] = bits_from_float(INFINITY);
+  const float move = length(s.x_next[i] - s.x[i]);
+  const float lo = kBoundMinRadius * s.mean_edge, hi = kBoundMaxRadius * s.mean_edge;
+  const float want = is_finite(s.x_next[i]) ? kBoundLookahead * move / kBoundFactor : lo;
+  s.bound_radius[i] = fminf(hi, fmaxf(lo, want));
+}
+
+// Bound (on a refresh), per triangle t: every cloth triangle t2 whose box comes within t's radius
+// (the largest look-ahead radius of its corners) is a candidate pair, and each unordered pair is
+// measured once, by the side with the larger radius (ties: the lower index), so that a pair nearer
+// than either side's radius is always measured. A pair is measured feature by feature, features
+// that share a vertex left out, each feature once over the whole mesh: a vertex against the other
+// triangle only from the triangle that owns that vertex (the lowest-numbered one holding it), an
+// edge against an edge only from the triangles owning both. Each distance bounds the vertices of
+// both features. A pair farther apart than a vertex's radius cannot limit it: its ball is
+// kBoundFactor of that radius at most.
+RC_HD float triangle_radius(const StepView& s, uint32_t t) {
+  const uint32_t* tri = s.model.triangles + 3 * t;
+  return max_of(s.bound_radius[tri[0]], max_of(s.bound_radius[tri[1]], s.bound_radius[tri[2]]));
+}
+
 RC_HD void stage_bound(const StepView& s, uint32_t t) {
+  if (s.counters->refresh == 0u) return;
   const uint32_t* tri = s.model.triangles;
   const Vec3* x = s.x;
   const uint32_t v[3] = {tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]};
-  const float radius = query_radius(max_of(move_of(s, v[0]), max_of(move_of(s, v[1]), move_of(s, v[2]))));
+  const float radius = triangle_radius(s, t);
   const DVec3 p[3] = {dvec(x[v[0]]), dvec(x[v[1]]), dvec(x[v[2]])};
-  const uint32_t owned = s.model.tri_edge_owner[t];
-  Aabb query = aabb_grow(aabb_union(segment_box(x[v[0]], x[v[1]]), point_box(x[v[2]])), radius);
-  float corner[3] = {INFINITY, INFINITY, INFINITY};
-  float face = INFINITY;
+  const uint32_t own = s.model.tri_edge_owner[t];
+  const Aabb box = aabb_union(segment_box(x[v[0]], x[v[1]]), point_box(x[v[2]]));
+  Aabb query = aabb_grow(box, radius);
+  auto bound = [&](uint32_t i, double d2) {
+    const float d = float(sqrt(d2));
+    if (d < radius) atomic_min_nonneg(&s.bound[i], d);
+  };
   bvh_for_each_overlap(s.cloth_bvh, query, [&](uint32_t t2) {
     if (t2 == t) return;
+    const float r2 = triangle_radius(s, t2);
+    if (r2 > radius || (r2 == radius && t2 < t)) return;  // measured from t2's side
     const uint32_t w[3] = {tri[3 * t2], tri[3 * t2 + 1], tri[3 * t2 + 2]};
+    const uint32_t own2 = s.model.tri_edge_owner[t2];
     const DVec3 q[3] = {dvec(x[w[0]]), dvec(x[w[1]]), dvec(x[w[2]])};
-    const Aabb box2 = aabb_grow(aabb_union(segment_box(x[w[0]], x[w[1]]), point_box(x[w[2]])), radius);
+    const Aabb box2 = aabb_union(segment_box(x[w[0]], x[w[1]]), point_box(x[w[2]]));
+    const Aabb query2 = aabb_grow(box2, radius);
     auto in_t = [&](uint32_t k) { return k == v[0] || k == v[1] || k == v[2]; };
     auto in_t2 = [&](uint32_t k) { return k == w[0] || k == w[1] || k == w[2]; };
-    // Box tests first: a feature pair whose boxes are apart by the radius cannot be nearer.
     for (int k = 0; k < 3; ++k) {
-      if (!in_t2(v[k]) && aabb_overlap(box2, point_box(x[v[k]])))
-        corner[k] = min_of(corner[k], float(sqrt(closest_on_triangle(p[k], q[0], q[1], q[2]).dist2)));
-      if (!in_t(w[k]) && aabb_overlap(query, point_box(x[w[k]])))
-        face = min_of(face, float(sqrt(closest_on_triangle(q[k], p[0], p[1], p[2]).dist2)));
+      // Corner k of t against t2; corner k of t2 against t.
+      if ((own & (8u << k)) && !in_t2(v[k]) && aabb_overlap(query2, point_box(x[v[k]]))) {
+        const double d2 = closest_on_triangle(p[k], q[0], q[1], q[2]).dist2;
+        bound(v[k], d2), bound(w[0], d2), bound(w[1], d2), bound(w[2], d2);
+      }
+      if ((own2 & (8u << k)) && !in_t(w[k]) && aabb_overlap(query, point_box(x[w[k]]))) {
+        const double d2 = closest_on_triangle(q[k], p[0], p[1], p[2]).dist2;
+        bound(w[k], d2), bound(v[0], d2), bound(v[1], d2), bound(v[2], d2);
+      }
     }
-    const uint32_t owned2 = s.model.tri_edge_owner[t2];
     for (int k = 0; k < 3; ++k) {
-      if (!(owned & (1u << k))) continue;
+      if (!(own & (1u << k))) continue;
       const uint32_t a = v[k], b = v[(k + 1) % 3];
+      const Aabb ea = aabb_grow(segment_box(x[a], x[b]), radius);
       for (int l = 0; l < 3; ++l) {
-        if (!(owned2 & (1u << l))) continue;
+        if (!(own2 & (1u << l))) continue;
         const uint32_t c = w[l], d = w[(l + 1) % 3];
         if (c == a || c == b || d == a || d == b) continue;
-        if (!aabb_overlap(aabb_grow(segment_box(x[a], x[b]), radius), segment_box(x[c], x[d]))) continue;
-        const float dist = float(sqrt(segment_segment_dist2(p[k], p[(k + 1) % 3], q[l], q[(l + 1) % 3])));
-        corner[k] = min_of(corner[k], dist);
-        corner[(k + 1) % 3] = min_of(corner[(k + 1) % 3], dist);
+        if (!aabb_overlap(ea, segment_box(x[c], x[d]))) continue;
+        const double d2 = segment_segment_dist2(p[k], p[(k + 1) % 3], q[l], q[(l + 1) % 3]);
+        bound(a, d2), bound(b, d2), bound(c, d2), bound(d, d2);
       }
     }
   });
-  for (int k = 0; k < 3; ++k) {
-    const float d = min_of(corner[k], face);
-    if (d < radius) atomic_min_nonneg(&s.bound[v[k]], d);
-  }
 }
 
-// Clamp: the vertex moves at most kBoundFactor of its bound, along its own move; its velocity
-// shrinks in proportion. Returns 1 when it shortened the move.
+// Clamp: the vertex stays inside its ball. Along its own move from x it goes as far as the ball
+// allows; its velocity shrinks in proportion. Returns 1 when it shortened the move.
 RC_HD uint32_t stage_clamp(const StepView& s, uint32_t i) {
-  if (!is_representative(s.model, i) || s.model.inv_mass[i] == 0.0f) return 0u;
-  const float allowed = fmaxf(0.0f, kBoundFactor * float_from_bits(s.bound[i]) - kBoundSlack);
+  if (!is_free(s, i)) return 0u;
+  const float allowed = allowance_of(s, i);
+  if (!(length(s.x_next[i] - s.x_ref[i]) > allowed)) return 0u;
+  // Largest k in [0, 1] with |x + k m - x_ref| <= allowed, in double.
+  const DVec3 p = dvec(s.x[i]) - dvec(s.x_ref[i]), m = dvec(s.x_next[i]) - dvec(s.x[i]);
+  const double mm = ddot(m, m), pm = ddot(p, m), a = double(allowed);
+  const double disc = pm * pm - mm * (ddot(p, p) - a * a);
+  double k = mm > 0.0 && disc > 0.0 ? (-pm + sqrt(disc)) / mm : 0.0;
+  k = k < 0.0 ? 0.0 : (k > 1.0 ? 1.0 : k);
   const Vec3 move = s.x_next[i] - s.x[i];
-  const float len = length(move);
-  if (!(len > allowed)) return 0u;
-  const float k = allowed / len;
-  s.x_next[i] = s.x[i] + move * k;
-  s.v_next[i] *= k;
+  s.x_next[i] = s.x[i] + move * float(k);
+  s.v_next[i] *= float(k);
   s.flags[i] |= kFlagClamped;
   return 1u;
 }

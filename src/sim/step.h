@@ -1,12 +1,13 @@
 // One step of the simulation, written once. Every backend runs this same sequence through an
 // executor that supplies the loops, the reductions and the ray cast (the backend seam):
 //
-//   StepView begin(uint64_t step)  obstacles posed at t + dt, acceleration structures updated
-//                                  (obstacles at t + dt, cloth at x), counters zeroed
+//   StepView begin(uint64_t step)  obstacles posed at t + dt, ray structures updated (obstacles at
+//                                  t + dt, cloth at x), counters zeroed
 //   for_each(stage, n, f)          f(i) for i in [0, n)
 //   sum(stage, n, f, slot)         *slot += sum of f(i)            (uint32)
 //   first(stage, n, f, slot)       *slot = min(*slot, smallest i with f(i) false)
 //   cast(rays, n, hits)            nearest hit per ray against obstacles and cloth
+//   refit_cloth(counters)          the cloth's proximity tree at x, needed when counters->refresh > 0
 //   end()                          x, v <- x_next, v_next
 //
 // The CPU executor runs oneTBB loops and casts with Embree (or the host BVH in tests); the CUDA
@@ -40,6 +41,11 @@ void run_step(Exec& ex, uint64_t step) {
   ex.sum(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { return stage_respond_contact(s, i); }, &c->hits);
   ex.for_each(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { stage_obstacles(s, i); });
 
+  ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_wants_refresh(s, i); }, &c->wants);
+  ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_wants_refresh_now(s, i); }, &c->wants_now);
+  ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_decide_refresh(s); });
+  ex.refit_cloth(c);
+  ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_bound_reset(s, i); });
   ex.for_each(Stage::Bound, nt, [s] RC_LAMBDA(uint32_t t) { stage_bound(s, t); });
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_clamp(s, i); }, &c->clamped);
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_conflict(s, i); }, &c->conflicts);
