@@ -133,3 +133,29 @@ TEST(Cli, BadFormatIsRefusedWithTheSceneFilesReasonBeforeAnythingIsWritten) {
   EXPECT_EQ(r.err, "raycloth: error: command line: --format: format 'ply' is listed twice\n");
   EXPECT_FALSE(fs::exists(dir / "out"));
 }
+
+TEST(Cli, CheckFindsACrossingInAFolderAndExitsOne) {
+  // A horizontal triangle and a vertical one whose lower edge passes through it, in one cloth frame.
+  const fs::path dir = fresh_dir("check_crossing");
+  fs::create_directories(dir / "out" / "frames");
+  std::ofstream(dir / "out" / "frames" / "cloth_0003.obj") << "o sheet\nv -1 0 -1\nv 1 0 -1\nv 0 0 1\n"
+                                                              "o wall\nv -0.2 -0.5 0\nv 0.2 -0.5 0\nv 0 0.5 0\n"
+                                                              "f 1 2 3\nf 4 5 6\n";
+  const Result r = run_cli("check " + (dir / "out").string(), dir);
+  EXPECT_EQ(r.code, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("frame 0003: "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(": 1 frames, 1 bad: 2 edge-triangle crossings and 0 vertices inside in all"), std::string::npos)
+      << r.out;
+}
+
+TEST(Cli, CheckOfAFolderWithoutFramesSaysWhy) {
+  const fs::path dir = fresh_dir("check_empty");
+  fs::create_directories(dir / "out");
+  Result r = run_cli("check " + (dir / "out").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "raycloth: error: " + (dir / "out").string() +
+                       ": frames/: no cloth frames (frames/cloth_NNNN.obj) to check; was it run with --format obj?\n");
+  r = run_cli("check " + (dir / "missing").string(), dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "raycloth: error: " + (dir / "missing").string() + ": not a folder\n");
+}

@@ -56,10 +56,11 @@ int run_case(const SceneDef& scene, const std::string& device, int warmup, int s
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const StageTimes& t = sim.stage_times();
   auto ms = [&](double a, double b) { return 1e3 * (a - b) / steps; };
-  std::cout << fmt::format("{:<16} {:>8} {:>6} {:>10.0f} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f} {:>8}\n", scene.name,
-                           sim.model().num_vertices(), steps, steps / wall, ms(t.integrate, before.integrate),
+  std::cout << fmt::format("{:<16} {:>8} {:>6} {:>10.0f} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f} {:>8}\n",
+                           scene.name, sim.model().num_vertices(), steps, steps / wall,
+                           steps * scene.time.dt / wall, ms(t.integrate, before.integrate),
                            ms(t.update, before.update), ms(t.cast, before.cast), ms(t.respond, before.respond),
-                           sim.last_hits());
+                           ms(t.bound, before.bound), sim.last_hits());
   return 0;
 }
 
@@ -77,10 +78,11 @@ Action add_bench_command(CLI::App& app) {
     return guarded([&] {
       std::optional<tbb::global_control> threads;
       if (args->threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(args->threads));
-      std::cout << fmt::format("{:<16} {:>8} {:>6} {:>10} {:>9} {:>9} {:>9} {:>9} {:>8}\n", "scene", "vertices",
-                               "steps", "steps/s", "forces", "update", "rays", "respond", "hits");
-      std::cout << fmt::format("{:<16} {:>8} {:>6} {:>10} {:>9} {:>9} {:>9} {:>9} {:>8}\n", "", "", "", "",
-                               "ms/step", "ms/step", "ms/step", "ms/step", "");
+      std::cout << fmt::format("{:<16} {:>8} {:>6} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8}\n", "scene",
+                               "vertices", "steps", "steps/s", "sim s/s", "forces", "update", "rays", "respond",
+                               "bound", "hits");
+      std::cout << fmt::format("{:<16} {:>8} {:>6} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8}\n", "", "", "",
+                               "", "", "ms/step", "ms/step", "ms/step", "ms/step", "ms/step", "");
       // The default scene is timed while it drapes (after the first contacts at ~0.16 s).
       run_case(default_scene(), args->device, 500, args->steps > 0 ? args->steps : 2000);
       for (int n : args->sizes) {
