@@ -159,3 +159,27 @@ TEST(Cli, CheckOfAFolderWithoutFramesSaysWhy) {
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(r.err, "raycloth: error: " + (dir / "missing").string() + ": not a folder\n");
 }
+
+TEST(Cli, RunWhosePenetrationCheckFailsExitsOneWithEverythingWritten) {
+  // A press box driven down into a table box squeezes the cloth between them: no response can keep
+  // every vertex out of both, and the run must say so rather than end as a success.
+  const fs::path dir = fresh_dir("squeeze");
+  fs::create_directories(dir);
+  std::ofstream(dir / "squeeze.json") << R"({
+    "name": "squeeze", "time": {"dt": 0.0004, "duration": 0.4, "fps": 30},
+    "materials": [{"name": "cotton", "density": 0.2, "stretch": 200, "shear": 40, "bend": 4, "damping": 1.0}],
+    "panels": [{"name": "cloth", "material": "cotton", "size": [0.6, 0.6], "resolution": [11, 11],
+                "position": [0, 0.21, 0]}],
+    "obstacles": [{"name": "table", "type": "box", "size": [0.4, 0.2, 0.4], "position": [0, 0.1, 0]},
+                  {"name": "press", "type": "box", "size": [0.2, 0.2, 0.2], "position": [0, 0.35, 0],
+                   "motion": {"velocity": [0, -0.5, 0]}}]})";
+  const fs::path out = dir / "out";
+  const Result r = run_cli("run " + (dir / "squeeze.json").string() + " --quiet --out " + out.string(), dir);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_EQ(r.err.rfind("raycloth: error: " + out.string() + ": the exact check found penetration in ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find("inside 'press'"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(out / "run.json"));
+  EXPECT_TRUE(fs::exists(out / "frames" / "cloth_0012.obj"));
+  const Result c = run_cli("check --quiet " + out.string(), dir);
+  EXPECT_EQ(c.code, 1) << c.out;
+}

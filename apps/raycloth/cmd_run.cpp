@@ -103,8 +103,16 @@ Action add_run_command(CLI::App& app) {
             fmt::join(r.outputs, ", "));
         if (render) std::cout << fmt::format("wrote {}/images/frame_*.png ({} frames)\n", args->out, r.frames.size());
       }
-      if (video) return assemble_video(args->out, int(r.frames.size()), scene.time.fps, args->quiet);
-      return 0;
+      const int video_code = video ? assemble_video(args->out, int(r.frames.size()), scene.time.fps, args->quiet) : 0;
+      // Penetration is an error, not a note: everything is written, and the exit code says so.
+      if (r.check.bad_frames > 0) {
+        std::cerr << fmt::format(
+            "raycloth: error: {}: the exact check found penetration in {} of {} frames (first, frame {}: {}); the "
+            "frames and run.json are written\n",
+            args->out, r.check.bad_frames, r.check.frames_checked, r.check.first_bad_frame, r.check.first_problem);
+        return 1;
+      }
+      return video_code;
     });
   };
 }
