@@ -4,21 +4,48 @@
 #include "collide/cpu/embree_collider.h"
 
 #include <embree3/rtcore.h>
-#include <spdlog/spdlog.h>
 #include <tbb/parallel_for.h>
 
+#include <atomic>
 #include <cstring>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 
 #include "collide/rules.h"
+#include "raycloth/error.h"
 
 namespace raycloth {
 
 namespace {
 
-void on_embree_error(void*, RTCError code, const char* str) {
-  spdlog::error("Embree error {}: {}", int(code), str ? str : "");
+const char* embree_error_name(RTCError code) {
+  switch (code) {
+    case RTC_ERROR_NONE: return "RTC_ERROR_NONE";
+    case RTC_ERROR_UNKNOWN: return "RTC_ERROR_UNKNOWN";
+    case RTC_ERROR_INVALID_ARGUMENT: return "RTC_ERROR_INVALID_ARGUMENT";
+    case RTC_ERROR_INVALID_OPERATION: return "RTC_ERROR_INVALID_OPERATION";
+    case RTC_ERROR_OUT_OF_MEMORY: return "RTC_ERROR_OUT_OF_MEMORY";
+    case RTC_ERROR_UNSUPPORTED_CPU: return "RTC_ERROR_UNSUPPORTED_CPU";
+    case RTC_ERROR_CANCELLED: return "RTC_ERROR_CANCELLED";
+  }
+  return "unknown Embree error";
+}
+
+// The first error Embree reports on a device; the collider turns it into a SimulationError after
+// the call that caused it, so a run never goes on with a half-built scene.
+struct EmbreeErrors {
+  std::mutex lock;
+  std::atomic<bool> any{false};
+  std::string first;
+};
+
+void on_embree_error(void* user, RTCError code, const char* str) {
+  auto* e = static_cast<EmbreeErrors*>(user);
+  std::lock_guard<std::mutex> guard(e->lock);
+  if (e->any.load()) return;
+  e->first = std::string(embree_error_name(code)) + (str && *str ? std::string(": ") + str : std::string());
+  e->any.store(true);
 }
 
 struct ClothFilterData {
@@ -50,7 +77,7 @@ class EmbreeCollider final : public Collider {
     device_ = rtcNewDevice(nullptr);
     if (!device_) throw std::runtime_error("Embree: could not create a device (error " +
                                            std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
-    rtcSetDeviceErrorFunction(device_, on_embree_error, nullptr);
+    rtcSetDeviceErrorFunction(device_, on_embree_error, &errors_);
   }
   ~EmbreeCollider() override {
     if (obstacles_) rtcReleaseScene(obstacles_);
@@ -73,15 +100,18 @@ class EmbreeCollider final : public Collider {
     if (dynamic) rtcSetGeometryBuildQuality(obstacle_geom_, RTC_BUILD_QUALITY_REFIT);
     obstacle_vertices_ = static_cast<float*>(rtcSetNewGeometryBuffer(
         obstacle_geom_, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(Vec3), num_vertices));
+    check("building the obstacles' scene");
     std::memcpy(obstacle_vertices_, vertices, num_vertices * sizeof(Vec3));
     num_obstacle_vertices_ = num_vertices;
     auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(obstacle_geom_, RTC_BUFFER_TYPE_INDEX, 0,
                                                                RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), num_triangles));
+    check("building the obstacles' scene");
     std::memcpy(idx, indices, num_triangles * 3 * sizeof(uint32_t));
     rtcCommitGeometry(obstacle_geom_);
     rtcAttachGeometry(obstacles_, obstacle_geom_);
     rtcReleaseGeometry(obstacle_geom_);
     rtcCommitScene(obstacles_);
+    check("building the obstacles' scene");
   }
 
   void update_obstacles(const Vec3* vertices) override {
@@ -90,6 +120,7 @@ class EmbreeCollider final : public Collider {
     rtcUpdateGeometryBuffer(obstacle_geom_, RTC_BUFFER_TYPE_VERTEX, 0);
     rtcCommitGeometry(obstacle_geom_);
     rtcCommitScene(obstacles_);
+    check("updating the obstacles' scene");
   }
 
   void set_cloth(size_t num_vertices, const uint32_t* indices, const uint32_t* tri_alias, size_t num_triangles,
@@ -107,15 +138,18 @@ class EmbreeCollider final : public Collider {
     rtcSetGeometryBuildQuality(cloth_geom_, RTC_BUILD_QUALITY_REFIT);
     cloth_vertices_ = static_cast<float*>(rtcSetNewGeometryBuffer(cloth_geom_, RTC_BUFFER_TYPE_VERTEX, 0,
                                                                   RTC_FORMAT_FLOAT3, sizeof(Vec3), num_vertices));
+    check("building the cloth's scene");
     std::memset(cloth_vertices_, 0, num_vertices * sizeof(Vec3));
     auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(cloth_geom_, RTC_BUFFER_TYPE_INDEX, 0,
                                                                RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), num_triangles));
+    check("building the cloth's scene");
     std::memcpy(idx, indices, num_triangles * 3 * sizeof(uint32_t));
     rtcSetGeometryUserData(cloth_geom_, &filter_);
     rtcSetGeometryIntersectFilterFunction(cloth_geom_, cloth_filter);
     rtcCommitGeometry(cloth_geom_);
     rtcAttachGeometry(cloth_, cloth_geom_);
     rtcReleaseGeometry(cloth_geom_);
+    check("building the cloth's scene");
     built_ = false;
   }
 
@@ -125,12 +159,22 @@ class EmbreeCollider final : public Collider {
     rtcUpdateGeometryBuffer(cloth_geom_, RTC_BUFFER_TYPE_VERTEX, 0);
     rtcCommitGeometry(cloth_geom_);
     rtcCommitScene(cloth_);
+    check("updating the cloth's scene");
     built_ = true;
   }
 
-  void cast(const Ray* rays, size_t count, RawHit* hits) override { cast_into(rays, count, hits, obstacles_); }
+  void cast(const Ray* rays, size_t count, RawHit* hits) override {
+    cast_into(rays, count, hits, obstacles_);
+    check("casting rays");
+  }
 
  private:
+  void check(const char* during) {
+    if (!errors_.any.load()) return;
+    std::lock_guard<std::mutex> guard(errors_.lock);
+    throw SimulationError("Embree failed while " + std::string(during) + ": " + errors_.first);
+  }
+
   void cast_into(const Ray* rays, size_t count, RawHit* hits, RTCScene obstacles) {
     RTCScene cloth = built_ ? cloth_ : nullptr;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const tbb::blocked_range<size_t>& range) {
@@ -167,6 +211,7 @@ class EmbreeCollider final : public Collider {
     });
   }
 
+  EmbreeErrors errors_;
   RTCDevice device_ = nullptr;
   RTCScene obstacles_ = nullptr, cloth_ = nullptr;
   RTCGeometry obstacle_geom_ = nullptr, cloth_geom_ = nullptr;
