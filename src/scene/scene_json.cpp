@@ -391,6 +391,50 @@ std::string parse_error_reason(const json::parse_error& e) {
   return what;
 }
 
+// The JSON pointer of the value being parsed, kept from the parser's events, so that an error the
+// parser raises inside a value (a number too large for a double) can name the field.
+class PointerTracker {
+ public:
+  bool event(json::parse_event_t ev, const json& parsed) {
+    switch (ev) {
+      case json::parse_event_t::object_start: frames_.push_back({false, 0, ""}); break;
+      case json::parse_event_t::array_start: frames_.push_back({true, 0, ""}); break;
+      case json::parse_event_t::key:
+        if (!frames_.empty()) frames_.back().key = parsed.get<std::string>();
+        break;
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end:
+        if (!frames_.empty()) frames_.pop_back();
+        value_done();
+        break;
+      case json::parse_event_t::value: value_done(); break;
+    }
+    return true;
+  }
+  // The pointer of the value the parser is in now.
+  std::string pointer() const {
+    std::string p;
+    for (const Frame& f : frames_) p += "/" + (f.array ? std::to_string(f.index) : escape(f.key));
+    return p;
+  }
+
+ private:
+  struct Frame {
+    bool array;
+    size_t index;
+    std::string key;
+  };
+  void value_done() {
+    if (!frames_.empty() && frames_.back().array) ++frames_.back().index;
+  }
+  static std::string escape(const std::string& key) {
+    std::string out;
+    for (char c : key) out += c == '~' ? "~0" : c == '/' ? "~1" : std::string(1, c);
+    return out;
+  }
+  std::vector<Frame> frames_;
+};
+
 }  // namespace
 
 SceneDef load_scene_file(const std::string& path) {
@@ -407,10 +451,19 @@ SceneDef load_scene_file(const std::string& path) {
 
 SceneDef parse_scene(const std::string& text, const std::string& origin) {
   json j;
+  PointerTracker where;
   try {
-    j = json::parse(text, nullptr, /*allow_exceptions=*/true, /*ignore_comments=*/true);
+    j = json::parse(
+        text, [&](int, json::parse_event_t ev, json& parsed) { return where.event(ev, parsed); },
+        /*allow_exceptions=*/true, /*ignore_comments=*/true);
   } catch (const json::parse_error& e) {
     throw InputError(origin, "", parse_error_reason(e));
+  } catch (const json::out_of_range& e) {
+    // nlohmann: "number overflow parsing '1e400'", raised while the value is being read.
+    std::string what = e.what();
+    const auto close = what.find("] ");
+    if (close != std::string::npos) what.erase(0, close + 2);
+    throw InputError(origin, where.pointer(), what + ": not a finite number");
   }
   Reader reader(origin, std::filesystem::path(origin).parent_path());
   SceneDef scene = reader.scene(j);
