@@ -238,11 +238,33 @@ TEST(SceneErrors, ObjFileMalformed) {
                      "/obstacles/0/file");
 }
 
+TEST(SceneErrors, ObjVertexThatIsNotAFiniteNumberNamesTheLine) {
+  const std::string origin = kSource + "/tests/data/scene.json";
+  const SceneDef nan = parse_scene(with_obstacle(R"({"type": "mesh", "file": "nan_vertex.obj"})"), origin);
+  expect_input_error([&] { build_obstacles(nan); },
+                     origin + ": /obstacles/0/file: OBJ file '" + kSource +
+                         "/tests/data/nan_vertex.obj' line 3: vertex coordinate 'nan' is not a finite number",
+                     "/obstacles/0/file");
+  const SceneDef huge = parse_scene(with_obstacle(R"({"type": "mesh", "file": "huge_vertex.obj"})"), origin);
+  expect_input_error([&] { build_obstacles(huge); },
+                     origin + ": /obstacles/0/file: OBJ file '" + kSource +
+                         "/tests/data/huge_vertex.obj' line 2: vertex coordinate '1e40' is not a finite number",
+                     "/obstacles/0/file");
+}
+
 TEST(SceneErrors, JsonSyntaxError) {
   expect_parse_error("{\n  \"name\": \"x\",\n  \"time\": {\"dt\": 0.001,}\n}",
                      "test.json: parse error at line 3, column 24: syntax error while parsing object key - "
                      "unexpected '}'; expected string literal",
                      "");
+}
+
+TEST(SceneErrors, NumberTooLargeForADoubleNamesTheField) {
+  expect_parse_error(R"({"time": {"dt": 1e400}})",
+                     "test.json: /time/dt: number overflow parsing '1e400': not a finite number", "/time/dt");
+  expect_parse_error(R"({"panels": [{"name": "a"}, {"name": "b", "size": [1, -1e999]}]})",
+                     "test.json: /panels/1/size/1: number overflow parsing '-1e999': not a finite number",
+                     "/panels/1/size/1");
 }
 
 TEST(SceneErrors, UnknownObstacleType) {

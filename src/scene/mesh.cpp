@@ -3,7 +3,10 @@
 #include <tiny_obj_loader.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "raycloth/error.h"
 
@@ -56,9 +59,38 @@ TriMesh make_plane(Vec3 size) {
   return m;
 }
 
+namespace {
+
+// tinyobjloader reads a coordinate it cannot parse ("nan", "abc") as 0 and one past the float range
+// as infinity, without a word; every `v` line is read here first, so that the error names the line.
+void check_obj_vertex_lines(const std::string& path, const std::string& scene_file, const std::string& field) {
+  std::ifstream in(path);
+  std::string line;
+  for (size_t number = 1; std::getline(in, line); ++number) {
+    if (line.size() < 2 || line[0] != 'v' || (line[1] != ' ' && line[1] != '\t')) continue;
+    std::istringstream words(line.substr(2));
+    std::string word;
+    for (int k = 0; k < 3; ++k) {
+      const auto fail = [&](const std::string& why) {
+        throw InputError(scene_file, field,
+                         "OBJ file '" + path + "' line " + std::to_string(number) + ": " + why);
+      };
+      if (!(words >> word)) fail("a vertex needs three coordinates");
+      char* end = nullptr;
+      const double value = std::strtod(word.c_str(), &end);
+      if (end == word.c_str() || *end != '\0') fail("vertex coordinate '" + word + "' is not a number");
+      if (!std::isfinite(value) || !std::isfinite(float(value)))
+        fail("vertex coordinate '" + word + "' is not a finite number");
+    }
+  }
+}
+
+}  // namespace
+
 TriMesh load_obj_mesh(const std::string& path, const std::string& scene_file, const std::string& field) {
   if (!std::filesystem::exists(path))
     throw InputError(scene_file, field, "OBJ file '" + path + "' does not exist");
+  check_obj_vertex_lines(path, scene_file, field);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
