@@ -1,7 +1,8 @@
 #include "check/state_check.h"
 
+#include "scene/mesh.h"
+
 #include <fmt/format.h>
-#include <tiny_obj_loader.h>
 
 #include <algorithm>
 #include <map>
@@ -55,34 +56,15 @@ namespace {
 
 // An OBJ as a CheckMesh, one group per `o`/`g` name.
 CheckMesh read_obj(const fs::path& path) {
-  tinyobj::ObjReaderConfig config;
-  config.triangulate = true;
-  config.vertex_color = false;
-  tinyobj::ObjReader reader;
-  if (!fs::exists(path)) throw InputError(path.string(), "", "file does not exist");
-  if (!reader.ParseFromFile(path.string(), config)) {
-    std::string why = reader.Error();
-    while (!why.empty() && (why.back() == '\n' || why.back() == '\r')) why.pop_back();
-    throw InputError(path.string(), "", "malformed OBJ: " + why);
-  }
-  const auto& attrib = reader.GetAttrib();
+  ObjTriangles obj = read_obj_triangles(path.string(), [&](const std::string& reason) {
+    throw InputError(path.string(), "", reason);
+  });
+  if (obj.indices.empty()) throw InputError(path.string(), "", "is malformed: it has no faces");
   CheckMesh m;
-  const size_t nv = attrib.vertices.size() / 3;
-  for (size_t i = 0; i < nv; ++i)
-    m.vertices.push_back(make_vec3(attrib.vertices[3 * i], attrib.vertices[3 * i + 1], attrib.vertices[3 * i + 2]));
-  for (const auto& shape : reader.GetShapes()) {
-    m.group_names.push_back(shape.name);
-    m.group_first_triangle.push_back(uint32_t(m.num_triangles()));
-    for (const auto& idx : shape.mesh.indices) {
-      if (idx.vertex_index < 0 || size_t(idx.vertex_index) >= nv)
-        throw InputError(path.string(), "", fmt::format("malformed OBJ: a face refers to vertex {} of {}",
-                                                        idx.vertex_index + 1, nv));
-      m.triangles.push_back(uint32_t(idx.vertex_index));
-    }
-  }
-  if (m.triangles.empty()) throw InputError(path.string(), "", "malformed OBJ: it has no faces");
-  for (const Vec3& v : m.vertices)
-    if (!is_finite(v)) throw InputError(path.string(), "", "malformed OBJ: a vertex is not finite");
+  m.vertices = std::move(obj.vertices);
+  m.triangles = std::move(obj.indices);
+  m.group_names = std::move(obj.group_names);
+  m.group_first_triangle = std::move(obj.group_first_triangle);
   return m;
 }
 

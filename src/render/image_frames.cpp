@@ -1,6 +1,7 @@
 #include "render/image_frames.h"
 
-#include <tiny_obj_loader.h>
+#include "scene/mesh.h"
+
 
 #include <cerrno>
 #include <cstring>
@@ -27,30 +28,16 @@ struct ObjMesh {
 };
 
 ObjMesh read_obj(const fs::path& path, const char* why_needed = "") {
-  if (!fs::exists(path)) throw InputError(path.string(), "", "does not exist" + std::string(why_needed));
-  tinyobj::ObjReaderConfig config;
-  config.triangulate = true;
-  config.vertex_color = false;
-  tinyobj::ObjReader reader;
-  if (!reader.ParseFromFile(path.string(), config)) {
-    std::string why = reader.Error();
-    while (!why.empty() && (why.back() == '\n' || why.back() == '\r')) why.pop_back();
-    throw InputError(path.string(), "", "malformed OBJ: " + why);
-  }
-  const auto& a = reader.GetAttrib();
+  ObjTriangles obj = read_obj_triangles(path.string(), [&](const std::string& reason) {
+    throw InputError(path.string(), "", reason == "does not exist" ? reason + why_needed : reason);
+  });
   ObjMesh m;
-  const size_t nv = a.vertices.size() / 3;
-  m.vertices.reserve(nv);
-  for (size_t i = 0; i < nv; ++i) m.vertices.push_back(make_vec3(a.vertices[3 * i], a.vertices[3 * i + 1], a.vertices[3 * i + 2]));
-  const auto& shapes = reader.GetShapes();
-  for (size_t s = 0; s < shapes.size(); ++s) {
-    for (const auto& idx : shapes[s].mesh.indices) {
-      if (idx.vertex_index < 0 || size_t(idx.vertex_index) >= nv)
-        throw InputError(path.string(), "", "malformed OBJ: face refers to vertex " +
-                                                std::to_string(idx.vertex_index + 1) + " of " + std::to_string(nv));
-      m.indices.push_back(uint32_t(idx.vertex_index));
-    }
-    m.object.insert(m.object.end(), shapes[s].mesh.indices.size() / 3, uint32_t(s));
+  m.vertices = std::move(obj.vertices);
+  m.indices = std::move(obj.indices);
+  for (size_t g = 0; g < obj.group_first_triangle.size(); ++g) {
+    const uint32_t end = g + 1 < obj.group_first_triangle.size() ? obj.group_first_triangle[g + 1]
+                                                                  : uint32_t(m.indices.size() / 3);
+    m.object.insert(m.object.end(), end - obj.group_first_triangle[g], uint32_t(g));
   }
   return m;
 }

@@ -63,34 +63,30 @@ namespace {
 
 // tinyobjloader reads a coordinate it cannot parse ("nan", "abc") as 0 and one past the float range
 // as infinity, without a word; every `v` line is read here first, so that the error names the line.
-void check_obj_vertex_lines(const std::string& path, const std::string& scene_file, const std::string& field) {
+void check_obj_vertex_lines(const std::string& path, const std::function<void(const std::string&)>& fail) {
   std::ifstream in(path);
   std::string line;
   for (size_t number = 1; std::getline(in, line); ++number) {
     if (line.size() < 2 || line[0] != 'v' || (line[1] != ' ' && line[1] != '\t')) continue;
     std::istringstream words(line.substr(2));
     std::string word;
+    const std::string at = "line " + std::to_string(number) + ": ";
     for (int k = 0; k < 3; ++k) {
-      const auto fail = [&](const std::string& why) {
-        throw InputError(scene_file, field,
-                         "OBJ file '" + path + "' line " + std::to_string(number) + ": " + why);
-      };
-      if (!(words >> word)) fail("a vertex needs three coordinates");
+      if (!(words >> word)) fail(at + "a vertex needs three coordinates");
       char* end = nullptr;
       const double value = std::strtod(word.c_str(), &end);
-      if (end == word.c_str() || *end != '\0') fail("vertex coordinate '" + word + "' is not a number");
+      if (end == word.c_str() || *end != '\0') fail(at + "vertex coordinate '" + word + "' is not a number");
       if (!std::isfinite(value) || !std::isfinite(float(value)))
-        fail("vertex coordinate '" + word + "' is not a finite number");
+        fail(at + "vertex coordinate '" + word + "' is not a finite number");
     }
   }
 }
 
 }  // namespace
 
-TriMesh load_obj_mesh(const std::string& path, const std::string& scene_file, const std::string& field) {
-  if (!std::filesystem::exists(path))
-    throw InputError(scene_file, field, "OBJ file '" + path + "' does not exist");
-  check_obj_vertex_lines(path, scene_file, field);
+ObjTriangles read_obj_triangles(const std::string& path, const std::function<void(const std::string&)>& fail) {
+  if (!std::filesystem::exists(path)) fail("does not exist");
+  check_obj_vertex_lines(path, fail);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
@@ -98,25 +94,36 @@ TriMesh load_obj_mesh(const std::string& path, const std::string& scene_file, co
   if (!reader.ParseFromFile(path, config)) {
     std::string why = reader.Error();
     while (!why.empty() && (why.back() == '\n' || why.back() == '\r')) why.pop_back();
-    throw InputError(scene_file, field, "OBJ file '" + path + "' is malformed: " + why);
+    fail("is malformed: " + why);
   }
   const auto& attrib = reader.GetAttrib();
-  TriMesh m;
+  ObjTriangles m;
   const size_t nv = attrib.vertices.size() / 3;
+  m.vertices.reserve(nv);
   for (size_t i = 0; i < nv; ++i)
     m.vertices.push_back(make_vec3(attrib.vertices[3 * i], attrib.vertices[3 * i + 1], attrib.vertices[3 * i + 2]));
   for (const auto& shape : reader.GetShapes()) {
+    m.group_names.push_back(shape.name);
+    m.group_first_triangle.push_back(uint32_t(m.indices.size() / 3));
     for (const auto& idx : shape.mesh.indices) {
       if (idx.vertex_index < 0 || size_t(idx.vertex_index) >= nv)
-        throw InputError(scene_file, field, "OBJ file '" + path + "' is malformed: face refers to vertex " +
-                                                std::to_string(idx.vertex_index + 1) + " of " + std::to_string(nv));
+        fail("is malformed: face refers to vertex " + std::to_string(idx.vertex_index + 1) + " of " +
+             std::to_string(nv));
       m.indices.push_back(uint32_t(idx.vertex_index));
     }
   }
-  if (m.indices.empty())
-    throw InputError(scene_file, field, "OBJ file '" + path + "' is malformed: it has no faces");
-  for (const Vec3& v : m.vertices)
-    if (!is_finite(v)) throw InputError(scene_file, field, "OBJ file '" + path + "' is malformed: non-finite vertex");
+  return m;
+}
+
+TriMesh load_obj_mesh(const std::string& path, const std::string& scene_file, const std::string& field) {
+  const auto fail = [&](const std::string& reason) {
+    throw InputError(scene_file, field, "OBJ file '" + path + "' " + reason);
+  };
+  ObjTriangles obj = read_obj_triangles(path, fail);
+  if (obj.indices.empty()) fail("is malformed: it has no faces");
+  TriMesh m;
+  m.vertices = std::move(obj.vertices);
+  m.indices = std::move(obj.indices);
   return m;
 }
 

@@ -1,6 +1,7 @@
 // Triangle meshes for obstacles: generators (UV sphere, box, plane) and the OBJ reader.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -20,7 +21,18 @@ TriMesh make_uv_sphere(float radius, int slices, int stacks);
 TriMesh make_box(Vec3 size);
 // A square in the y = 0 plane, normal +y, size.x by size.z.
 TriMesh make_plane(Vec3 size);
-// Reads an OBJ (triangulated); throws InputError(file, field, reason) when missing or malformed.
+// An OBJ file's faces, triangulated, and its `o`/`g` groups.
+struct ObjTriangles {
+  std::vector<Vec3> vertices;
+  std::vector<uint32_t> indices;  // 3 per triangle
+  std::vector<std::string> group_names;
+  std::vector<uint32_t> group_first_triangle;
+};
+// The one OBJ reader (scene obstacles, `raycloth check`, `raycloth render`): tinyobjloader, with
+// every `v` line checked first. On a missing or malformed file it calls fail(reason), which must
+// throw; reason is "does not exist", "is malformed: ..." or "line N: ...".
+ObjTriangles read_obj_triangles(const std::string& path, const std::function<void(const std::string&)>& fail);
+// Reads an OBJ obstacle; throws InputError(file, field, "OBJ file 'PATH' " + reason).
 TriMesh load_obj_mesh(const std::string& path, const std::string& scene_file, const std::string& field);
 
 }  // namespace raycloth
