@@ -97,6 +97,7 @@ class EmbreeCollider final : public Collider {
       rtcSetSceneBuildQuality(obstacles_, RTC_BUILD_QUALITY_LOW);
     }
     obstacle_geom_ = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+    unattached_ = obstacle_geom_;
     if (dynamic) rtcSetGeometryBuildQuality(obstacle_geom_, RTC_BUILD_QUALITY_REFIT);
     obstacle_vertices_ = static_cast<float*>(rtcSetNewGeometryBuffer(
         obstacle_geom_, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(Vec3), num_vertices));
@@ -110,6 +111,7 @@ class EmbreeCollider final : public Collider {
     rtcCommitGeometry(obstacle_geom_);
     rtcAttachGeometry(obstacles_, obstacle_geom_);
     rtcReleaseGeometry(obstacle_geom_);
+    unattached_ = nullptr;
     rtcCommitScene(obstacles_);
     check("building the obstacles' scene");
   }
@@ -135,6 +137,7 @@ class EmbreeCollider final : public Collider {
     rtcSetSceneFlags(cloth_, RTC_SCENE_FLAG_DYNAMIC);
     rtcSetSceneBuildQuality(cloth_, RTC_BUILD_QUALITY_LOW);
     cloth_geom_ = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+    unattached_ = cloth_geom_;
     rtcSetGeometryBuildQuality(cloth_geom_, RTC_BUILD_QUALITY_REFIT);
     cloth_vertices_ = static_cast<float*>(rtcSetNewGeometryBuffer(cloth_geom_, RTC_BUFFER_TYPE_VERTEX, 0,
                                                                   RTC_FORMAT_FLOAT3, sizeof(Vec3), num_vertices));
@@ -149,6 +152,7 @@ class EmbreeCollider final : public Collider {
     rtcCommitGeometry(cloth_geom_);
     rtcAttachGeometry(cloth_, cloth_geom_);
     rtcReleaseGeometry(cloth_geom_);
+    unattached_ = nullptr;
     check("building the cloth's scene");
     built_ = false;
   }
@@ -171,6 +175,8 @@ class EmbreeCollider final : public Collider {
  private:
   void check(const char* during) {
     if (!errors_.any.load()) return;
+    if (unattached_) rtcReleaseGeometry(unattached_);  // a geometry left half-built by the failure
+    unattached_ = nullptr;
     std::lock_guard<std::mutex> guard(errors_.lock);
     throw SimulationError("Embree failed while " + std::string(during) + ": " + errors_.first);
   }
@@ -215,6 +221,7 @@ class EmbreeCollider final : public Collider {
   RTCDevice device_ = nullptr;
   RTCScene obstacles_ = nullptr, cloth_ = nullptr;
   RTCGeometry obstacle_geom_ = nullptr, cloth_geom_ = nullptr;
+  RTCGeometry unattached_ = nullptr;  // created, not yet attached to its scene
   float* obstacle_vertices_ = nullptr;
   float* cloth_vertices_ = nullptr;
   size_t num_obstacle_vertices_ = 0, num_cloth_vertices_ = 0;
