@@ -269,7 +269,7 @@ TEST(SceneErrors, NumberTooLargeForADoubleNamesTheField) {
 
 TEST(SceneErrors, UnknownObstacleType) {
   expect_parse_error(with_obstacle(R"({"type": "cone"})"),
-                     "test.json: /obstacles/0/type: unknown obstacle type 'cone' (expected uv_sphere, box, plane or mesh)",
+                     "test.json: /obstacles/0/type: unknown obstacle type 'cone' (expected uv_sphere, box, plane, mesh or skinned)",
                      "/obstacles/0/type");
 }
 

@@ -71,7 +71,7 @@ struct PinDef {
   std::optional<std::array<int, 2>> range;
 };
 
-enum class ObstacleType { UvSphere, Box, Plane, Mesh };
+enum class ObstacleType { UvSphere, Box, Plane, Mesh, Skinned };
 
 struct MotionDef {
   Float3 velocity{0, 0, 0};          // m/s
@@ -85,7 +85,15 @@ struct ObstacleDef {
   float radius = 0.5f;          // uv_sphere
   int slices = 24, stacks = 25; // uv_sphere
   Float3 size{1, 1, 1};         // box: full extents; plane: size[0] x size[2]
-  std::string file;             // mesh: OBJ path (resolved against the scene file's folder)
+  std::string file;             // mesh: OBJ path; skinned: glTF path (resolved against the scene file's folder)
+  // skinned: the animation (empty: the file's first), its playback speed, whether it loops, the
+  // animation time at t = 0 (seconds; default the first key), and the time over which the pose goes
+  // from the rest (bind) pose into the animation.
+  std::string animation;
+  float speed = 1.0f;
+  bool loop = true;
+  std::optional<double> offset;
+  double blend_in = 0.0;
   TransformDef transform;
   std::optional<MotionDef> motion;
 };

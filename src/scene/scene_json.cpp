@@ -318,7 +318,8 @@ class Reader {
     if (t == "box") return ObstacleType::Box;
     if (t == "plane") return ObstacleType::Plane;
     if (t == "mesh") return ObstacleType::Mesh;
-    fail(ptr, "unknown obstacle type '" + t + "' (expected uv_sphere, box, plane or mesh)");
+    if (t == "skinned") return ObstacleType::Skinned;
+    fail(ptr, "unknown obstacle type '" + t + "' (expected uv_sphere, box, plane, mesh or skinned)");
   }
 
   MotionDef motion(const json& j, const std::string& ptr) const {
@@ -335,7 +336,7 @@ class Reader {
     ObstacleDef od;
     od.name = "obstacle" + std::to_string(index);
     object(j, ptr, {"name", "type", "radius", "slices", "stacks", "size", "file", "position", "rotation", "scale",
-                    "motion"});
+                    "motion", "animation", "speed", "loop", "offset", "blend_in"});
     std::string type_name;
     required(j, ptr, "type", [&](const json& v, const std::string& p) {
       od.type = obstacle_type(v, p);
@@ -352,13 +353,21 @@ class Reader {
     only_for("slices", {ObstacleType::UvSphere});
     only_for("stacks", {ObstacleType::UvSphere});
     only_for("size", {ObstacleType::Box, ObstacleType::Plane});
-    only_for("file", {ObstacleType::Mesh});
+    only_for("file", {ObstacleType::Mesh, ObstacleType::Skinned});
+    for (const char* key : {"animation", "speed", "loop", "offset", "blend_in"}) only_for(key, {ObstacleType::Skinned});
+    if (od.type == ObstacleType::Skinned && j.contains("motion"))
+      fail(ptr + "/motion", "field 'motion' does not apply to obstacle type 'skinned' (its animation moves it)");
     optional(j, ptr, "name", [&](const json& v, const std::string& p) { od.name = string(v, p); });
     optional(j, ptr, "radius", [&](const json& v, const std::string& p) { od.radius = number_f(v, p); });
     optional(j, ptr, "slices", [&](const json& v, const std::string& p) { od.slices = integer(v, p); });
     optional(j, ptr, "stacks", [&](const json& v, const std::string& p) { od.stacks = integer(v, p); });
     optional(j, ptr, "size", [&](const json& v, const std::string& p) { od.size = float3(v, p); });
-    if (od.type == ObstacleType::Mesh)
+    optional(j, ptr, "animation", [&](const json& v, const std::string& p) { od.animation = string(v, p); });
+    optional(j, ptr, "speed", [&](const json& v, const std::string& p) { od.speed = number_f(v, p); });
+    optional(j, ptr, "loop", [&](const json& v, const std::string& p) { od.loop = boolean(v, p); });
+    optional(j, ptr, "offset", [&](const json& v, const std::string& p) { od.offset = number(v, p); });
+    optional(j, ptr, "blend_in", [&](const json& v, const std::string& p) { od.blend_in = number(v, p); });
+    if (od.type == ObstacleType::Mesh || od.type == ObstacleType::Skinned)
       required(j, ptr, "file", [&](const json& v, const std::string& p) {
         const std::filesystem::path f = string(v, p);
         od.file = (f.is_absolute() || dir_.empty() ? f : dir_ / f).lexically_normal().string();
@@ -628,6 +637,14 @@ void validate_scene(const SceneDef& s) {
       case ObstacleType::Mesh:
         if (od.file.empty()) fail(p + "/file", "a mesh obstacle needs an OBJ file");
         if (!std::filesystem::exists(od.file)) fail(p + "/file", "OBJ file '" + od.file + "' does not exist");
+        break;
+      case ObstacleType::Skinned:
+        if (od.file.empty()) fail(p + "/file", "a skinned obstacle needs a glTF file");
+        if (!std::filesystem::exists(od.file)) fail(p + "/file", "glTF file '" + od.file + "' does not exist");
+        if (!(std::isfinite(od.speed) && od.speed >= 0.0f))
+          fail(p + "/speed", "must be a number >= 0");
+        if (od.offset && !std::isfinite(*od.offset)) fail(p + "/offset", "must be finite");
+        non_negative(od.blend_in, p + "/blend_in");
         break;
     }
     check_transform(od.transform, p);

@@ -79,9 +79,14 @@ class CpuBackend final : public Backend {
   StepView begin(uint64_t step) {
     const auto t = Clock::now();
     if (obstacles_.any_moving) {
+      obstacle_prev_ = obstacle_x_;
       obstacles_.pose_at(double(step + 1) * scene_.time.dt, obstacle_x_, obstacle_v_);
       collider_->update_obstacles(obstacle_x_.data());
       refit_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.world.indices.data());
+      // A deforming (skinned) body can degrade the refit tree as the cloth's does.
+      if (bvh_needs_rebuild(bvh_area(obstacle_bvh_.view()), obstacle_bvh_.built_area))
+        build_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.world.indices.data(),
+                  uint32_t(obstacles_.world.num_triangles()));
     }
     collider_->update_cloth(x_.data());
     counters_ = StepCounters();
@@ -188,13 +193,13 @@ class CpuBackend final : public Backend {
     return s;
   }
 
-  // How far any obstacle surface point moves in one step, at most: the fastest vertex's speed times
-  // dt (a rotating vertex moves along a chord, shorter than its arc).
+  // How far any obstacle surface point moves in this step, at most: every vertex moves along a
+  // straight line within the step, so the largest vertex displacement bounds every surface point's.
   float obstacle_reach() const {
-    if (!obstacles_.any_moving) return 0.0f;
-    float vmax = 0.0f;
-    for (const Vec3& u : obstacle_v_) vmax = std::max(vmax, length(u));
-    return vmax * float(scene_.time.dt) * 1.01f;
+    if (!obstacles_.any_moving || obstacle_prev_.size() != obstacle_x_.size()) return 0.0f;
+    float d = 0.0f;
+    for (size_t i = 0; i < obstacle_x_.size(); ++i) d = std::max(d, length(obstacle_x_[i] - obstacle_prev_[i]));
+    return d * 1.01f + 1e-7f;
   }
 
   const SceneDef& scene_;
@@ -202,7 +207,7 @@ class CpuBackend final : public Backend {
   const ObstacleSet& obstacles_;
   std::unique_ptr<Collider> collider_;
   std::vector<Vec3> x_, v_, x_next_, v_next_, contact_normal_, x_ref_;
-  std::vector<Vec3> obstacle_x_, obstacle_v_;
+  std::vector<Vec3> obstacle_x_, obstacle_v_, obstacle_prev_;
   std::vector<Ray> rays_;
   std::vector<RawHit> hits_;
   std::vector<Contact> contacts_;

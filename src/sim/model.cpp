@@ -299,11 +299,21 @@ ObstacleSet build_obstacles(const SceneDef& s) {
     const ObstacleDef& od = s.obstacles[oi];
     const std::string field = "/obstacles/" + std::to_string(oi);
     TriMesh local;
+    std::shared_ptr<const SkinnedMesh> skinned;
     switch (od.type) {
       case ObstacleType::UvSphere: local = make_uv_sphere(od.radius, od.slices, od.stacks); break;
       case ObstacleType::Box: local = make_box(to_vec3(od.size)); break;
       case ObstacleType::Plane: local = make_plane(to_vec3(od.size)); break;
       case ObstacleType::Mesh: local = load_obj_mesh(od.file, s.source, field + "/file"); break;
+      case ObstacleType::Skinned: {
+        auto mesh = std::make_shared<SkinnedMesh>(load_skinned_mesh(
+            od.file, od.animation,
+            [&](const std::string& f, const std::string& reason) { throw InputError(s.source, field + "/" + f, reason); }));
+        local.indices = mesh->indices;
+        mesh->skin(mesh->joint_matrices(mesh->sample(0, 0)), local.vertices);  // the rest pose
+        skinned = std::move(mesh);
+        break;
+      }
     }
     const Transform xf = make_transform(od.transform);
     set.names.push_back(od.name);
@@ -314,15 +324,54 @@ ObstacleSet build_obstacles(const SceneDef& s) {
     for (uint32_t i : local.indices) set.world.indices.push_back(base + i);
     set.local.push_back(std::move(local));
     set.defs.push_back(od);
-    if (od.motion) set.any_moving = true;
+    if (od.motion || skinned) set.any_moving = true;
+    set.skinned.push_back(std::move(skinned));
   }
   return set;
+}
+
+namespace {
+
+// The animation time of a skinned obstacle at simulated time t, and how far the pose has blended
+// from the rest pose into the animation.
+std::pair<float, float> animation_time(const ObstacleDef& od, const SkinnedMesh& m, double t) {
+  double a = od.offset.value_or(m.start) + double(od.speed) * t;
+  const double span = double(m.end) - double(m.start);
+  if (od.loop && span > 0) a = m.start + std::fmod(std::fmod(a - m.start, span) + span, span);
+  double blend = 1.0;
+  if (od.blend_in > 0 && t < od.blend_in) {
+    const double u = std::max(0.0, t / od.blend_in);
+    blend = u * u * (3 - 2 * u);  // smoothstep: no jolt at either end
+  }
+  return {float(a), float(blend)};
+}
+
+}  // namespace
+
+void ObstacleSet::pose_skinned(size_t oi, double t, Vec3* vertices) const {
+  const SkinnedMesh& m = *skinned[oi];
+  const auto [a, blend] = animation_time(defs[oi], m, t);
+  std::vector<Vec3> posed;
+  m.skin(m.joint_matrices(m.sample(a, blend)), posed);
+  const Transform xf = make_transform(defs[oi].transform);
+  for (size_t i = 0; i < posed.size(); ++i) vertices[i] = xf.apply(posed[i]);
 }
 
 void ObstacleSet::pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec3>& velocities) const {
   vertices = world.vertices;
   velocities.assign(vertices.size(), make_vec3(0, 0, 0));
   for (size_t oi = 0; oi < defs.size(); ++oi) {
+    if (skinned[oi]) {
+      // Positions at t; surface velocities from the pose 0.5 ms either side (one-sided at t = 0).
+      const size_t n = local[oi].vertices.size(), first = first_vertex[oi];
+      const double h = 5e-4, t0 = std::max(0.0, t - h), t1 = t + h;
+      std::vector<Vec3> a(n), b(n);
+      pose_skinned(oi, t, vertices.data() + first);
+      pose_skinned(oi, t0, a.data());
+      pose_skinned(oi, t1, b.data());
+      for (size_t i = 0; i < n; ++i) velocities[first + i] = (b[i] - a[i]) * float(1.0 / (t1 - t0));
+      continue;
+    }
     if (!defs[oi].motion) continue;
     const MotionDef& mo = *defs[oi].motion;
     const bool moving = t >= mo.start;

@@ -1,6 +1,7 @@
 // The cloth model: topology, rest lengths, masses and stiffness, built once from the scene and
 // never changed while stepping (the state, positions and velocities, lives apart).
 #pragma once
+#include <memory>
 #include <array>
 #include <cstdint>
 #include <string>
@@ -9,6 +10,7 @@
 #include "raycloth/scene.h"
 #include "raycloth/vec3.h"
 #include "scene/mesh.h"
+#include "scene/skinned_mesh.h"
 
 namespace raycloth {
 
@@ -85,9 +87,12 @@ struct ObstacleSet {
   std::vector<uint32_t> first_triangle;
   std::vector<TriMesh> local;          // per obstacle, before its transform
   std::vector<ObstacleDef> defs;
+  std::vector<std::shared_ptr<const SkinnedMesh>> skinned;  // per obstacle; null unless skinned
   bool any_moving = false;
   // World-space vertices and per-vertex velocities at simulated time t.
   void pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec3>& velocities) const;
+  // A skinned obstacle's world-space vertices at simulated time t (local[oi].vertices.size() of them).
+  void pose_skinned(size_t oi, double t, Vec3* vertices) const;
 };
 
 // Fills the per-vertex CSR adjacency and the spring counts from model.springs.
