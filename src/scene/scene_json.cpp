@@ -18,6 +18,7 @@
 
 #include "raycloth/error.h"
 #include "raycloth/scene.h"
+#include "scene/json_text.h"
 
 namespace raycloth {
 
@@ -390,15 +391,6 @@ class Reader {
   std::filesystem::path dir_;
 };
 
-// "cannot open" reasons and the nlohmann parse error without its "[json.exception...] " tag.
-std::string parse_error_reason(const json::parse_error& e) {
-  std::string what = e.what();
-  if (!what.empty() && what[0] == '[') {
-    const auto close = what.find("] ");
-    if (close != std::string::npos) what.erase(0, close + 2);
-  }
-  return what;
-}
 
 // The JSON pointer of the value being parsed, kept from the parser's events, so that an error the
 // parser raises inside a value (a number too large for a double) can name the field.
@@ -466,13 +458,10 @@ SceneDef parse_scene(const std::string& text, const std::string& origin) {
         text, [&](int, json::parse_event_t ev, json& parsed) { return where.event(ev, parsed); },
         /*allow_exceptions=*/true, /*ignore_comments=*/true);
   } catch (const json::parse_error& e) {
-    throw InputError(origin, "", parse_error_reason(e));
+    throw InputError(origin, "", without_json_exception_tags(e.what()));
   } catch (const json::out_of_range& e) {
     // nlohmann: "number overflow parsing '1e400'", raised while the value is being read.
-    std::string what = e.what();
-    const auto close = what.find("] ");
-    if (close != std::string::npos) what.erase(0, close + 2);
-    throw InputError(origin, where.pointer(), what + ": not a finite number");
+    throw InputError(origin, where.pointer(), without_json_exception_tags(e.what()) + ": not a finite number");
   }
   Reader reader(origin, std::filesystem::path(origin).parent_path());
   SceneDef scene = reader.scene(j);

@@ -8,6 +8,8 @@
 #include <cstring>
 #include <filesystem>
 
+#include "scene/json_text.h"
+
 namespace raycloth {
 
 namespace {
@@ -211,12 +213,7 @@ SkinnedMesh load_skinned_mesh(const std::string& path, const std::string& animat
   const bool binary = std::filesystem::path(path).extension() == ".glb";
   const bool ok = binary ? loader.LoadBinaryFromFile(&m, &err, &warn, path) : loader.LoadASCIIFromFile(&m, &err, &warn, path);
   while (!err.empty() && (err.back() == '\n' || err.back() == '\r')) err.pop_back();
-  // tinygltf passes its JSON parser's message on with the library's "[json.exception...] " tag.
-  for (auto at = err.find("[json.exception."); at != std::string::npos; at = err.find("[json.exception.")) {
-    const auto close = err.find("] ", at);
-    if (close == std::string::npos) break;
-    err.erase(at, close + 2 - at);
-  }
+  err = without_json_exception_tags(err);  // tinygltf passes its JSON parser's message on
   if (!ok) fail("file", "glTF file '" + path + "' is malformed: " + err);
   const std::string in_file = "glTF file '" + path + "'";
   if (m.skins.empty()) fail("file", in_file + " has no skin");

@@ -137,6 +137,8 @@ class CpuBackend final : public Backend {
     add_time(Stage::Cast, t);
   }
 
+  // The step's view of cloth_bvh_ was taken in begin(); a rebuild keeps the same array sizes (the
+  // triangle count never changes), so its pointers stay valid.
   void refit_cloth(const StepCounters* c) {
     if (c->refresh == 0u) return;
     const auto t = Clock::now();
