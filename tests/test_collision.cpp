@@ -80,7 +80,11 @@ TEST(Collision, FastVertexDoesNotTunnelThroughThinPlane) {
   SceneDef s = test::panel_scene(3, 0.02f, 1.0f);
   s.gravity = {0, -4000.0f, 0};  // ~280 m/s at the plane: 0.11 m per step, 22x the tolerance
   s.obstacles.push_back(test::plane_obstacle(2.0f, {0, 0, 0}));
-  Simulator sim(s);
+  // 9 vertices of 9 mg on 2 cm of cloth: dt is past the mesh's stability limit (0.19 ms); the test
+  // is about tunnelling, not about accuracy, so that is allowed.
+  SimOptions allow;
+  allow.allow_unstable_dt = true;
+  Simulator sim(s, allow);
   // The displacement bound lets a vertex move at most 0.4 of its distance to the nearest cloth
   // feature it is not joined to (1 cm here) per step, so it takes longer than 0.11 m per step.
   for (int k = 0; k < 600; ++k) {

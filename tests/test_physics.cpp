@@ -122,7 +122,21 @@ TEST(Physics, StabilityCheckRefusesTimeStepAtOrAboveT0) {
                  "0.00198692 s (lightest vertex m = 8e-05 kg, stiffest spring K = 200 N/m); lower dt below "
                  "0.00198692 s or allow it explicitly");
   }
+  // Below T0 the mesh's own limit still holds: the middle vertex (8e-5 kg) has 4 stretch, 4 shear
+  // and no bend springs, K = 960 N/m, so dt < 2 sqrt(m / K) = 0.000577350 s.
   s.time.dt = 0.9 * t0;
+  try {
+    Simulator sim(s);
+    FAIL() << "dt above the mesh's limit was accepted";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(),
+                 "<scene>: /time/dt: time step 0.00178823 s is not below the mesh's stability limit 0.00057735 s: "
+                 "vertex 4 of panel 'cloth' has mass 8e-05 kg and springs summing to K = 960 N/m, and explicit Euler "
+                 "needs dt < 2 sqrt(m / K); lower dt below 0.00057735 s, or make the panel's edges longer or its "
+                 "springs softer or allow it explicitly");
+  }
+  EXPECT_NEAR(build_cloth_model(s).stability_limit(), 2 * std::sqrt(8e-5 / 960.0), 1e-9);
+  s.time.dt = 0.95 * 2 * std::sqrt(8e-5 / 960.0);
   EXPECT_NO_THROW(Simulator{s});
   s.time.dt = 2 * t0;
   SimOptions allow;

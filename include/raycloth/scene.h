@@ -40,35 +40,89 @@ struct TransformDef {
   Float3 scale{1, 1, 1};
 };
 
-// A rectangular l x n grid of mass points. Local layout: u along width (local x),
-// v along height (local z); the panel lies in its local y = 0 plane, normal +y.
+// One piece of a pattern outline: from `from` to the next segment's `from` (the last segment
+// closes the outline), a straight line, or a quadratic Bezier curve when `control` is given.
+struct OutlineSegment {
+  std::string name;                                // how seams, pins and attachments refer to it
+  std::array<float, 2> from{0, 0};                 // metres, in the pattern's plane
+  std::optional<std::array<float, 2>> control;     // curve control point
+};
+
+// A sewing-pattern piece: a closed outline meshed to a target edge length. The pattern's plane
+// (x, y) becomes the panel's local (x, y, 0) (y up, normal +z), or with `wrap_radius` the outline
+// is wrapped around a vertical cylinder about the local y axis: x runs along the circumference,
+// the piece's middle (x = 0) at local (0, y, radius), normal outwards.
+struct PatternDef {
+  std::vector<OutlineSegment> outline;
+  float edge_length = 0.02f;                       // metres
+  std::optional<float> wrap_radius;                // metres
+};
+
+enum class PanelShape { Rectangle, Mesh, Pattern };
+
+// A panel. Rectangle: an l x n grid of mass points, u along width (local x), v along height
+// (local z), in its local y = 0 plane, normal +y. Mesh: the triangles of an OBJ file (its
+// coordinates are the rest shape). Pattern: see PatternDef.
 struct PanelDef {
   std::string name;
   std::string material;
+  PanelShape shape = PanelShape::Rectangle;
   float width = 1.0f, height = 1.0f;     // metres
   int resolution_u = 2, resolution_v = 2;  // vertices along u and v
+  std::string mesh_file;                 // mesh: OBJ path (resolved against the scene file's folder)
+  PatternDef pattern;                    // pattern
   TransformDef transform;
 };
 
-// Panel edges: left (u = 0), right (u = max), bottom (v = 0), top (v = max).
+// A path of panel vertices: a rectangle's edge (left (u = 0), right (u = max), bottom (v = 0),
+// top (v = max)), a pattern's outline segment by name, or a mesh panel's boundary from one vertex
+// to another (OBJ vertex numbers from 0, following the boundary in the triangles' winding).
 struct EdgeRef {
   std::string panel;
   std::string edge;
+  std::string segment;
+  std::optional<std::array<int, 2>> path;
 };
 
+// Seams join two paths. Paths of different lengths (patterns and meshes) are matched by arc
+// length: each side gets the other side's vertices inserted where it has none near, then the
+// pairs are welded into one vertex.
 struct SeamDef {
   EdgeRef a, b;
   bool reverse = false;     // pair a's first vertex with b's last
   float stiffness = 200.0f; // N/m, seam springs have rest length 0
 };
 
-// Pins hold vertices in place: a corner ("bottom_left", ...), a whole edge, or an index range
-// [first, last] of the panel's vertices (index = v * resolution_u + u).
+// While seams close: every spring's rest length goes from its length in the placed, welded start
+// state to its length in the panel's own shape over close_time seconds (smoothstep), so panels
+// placed apart are drawn together gently. 0: the rest lengths hold from the start.
+struct SewingDef {
+  double close_time = 0.0;
+};
+
+// Pins hold vertices in place: a corner ("bottom_left", ...), a whole edge or outline segment, or an
+// index range [first, last] of the panel's vertices (index = v * resolution_u + u on a rectangle).
 struct PinDef {
   std::string panel;
   std::string corner;
   std::string edge;
+  std::string segment;
   std::optional<std::array<int, 2>> range;
+};
+
+// Cloth vertices that follow points of an obstacle's surface: each is pulled by a spring of rest
+// length 0 (with damping along the relative velocity) to its body point, lifted `lift` metres
+// along the surface normal. The body points are the given obstacle vertices (one per cloth vertex)
+// or, when none are given, the nearest surface points at the start.
+struct AttachmentDef {
+  std::string panel;
+  std::string edge, segment;
+  std::optional<std::array<int, 2>> range;
+  std::string obstacle;
+  std::vector<int> obstacle_vertices;
+  float stiffness = 50.0f;  // N/m
+  float damping = 0.01f;    // N s/m
+  float lift = 0.004f;      // metres
 };
 
 enum class ObstacleType { UvSphere, Box, Plane, Mesh, Skinned };
@@ -128,6 +182,8 @@ struct SceneDef {
   std::vector<PanelDef> panels;
   std::vector<SeamDef> seams;
   std::vector<PinDef> pins;
+  SewingDef sewing;
+  std::vector<AttachmentDef> attachments;
   std::vector<ObstacleDef> obstacles;
   OutputDef output;
 };

@@ -79,7 +79,8 @@ class Reader {
   SceneDef scene(const json& j) {
     SceneDef s;
     s.source = file_;
-    object(j, "", {"name", "time", "gravity", "collision", "materials", "panels", "seams", "pins", "obstacles", "output"});
+    object(j, "", {"name", "time", "gravity", "collision", "materials", "panels", "seams", "pins", "sewing",
+                   "attachments", "obstacles", "output"});
     optional(j, "", "name", [&](const json& v, const std::string& p) { s.name = string(v, p); });
     optional(j, "", "time", [&](const json& v, const std::string& p) { s.time = time(v, p); });
     optional(j, "", "gravity", [&](const json& v, const std::string& p) { s.gravity = float3(v, p); });
@@ -88,6 +89,12 @@ class Reader {
     list(j, "", "panels", true, [&](const json& v, const std::string& p, size_t) { s.panels.push_back(panel(v, p)); });
     list(j, "", "seams", false, [&](const json& v, const std::string& p, size_t) { s.seams.push_back(seam(v, p)); });
     list(j, "", "pins", false, [&](const json& v, const std::string& p, size_t) { s.pins.push_back(pin(v, p)); });
+    optional(j, "", "sewing", [&](const json& v, const std::string& p) {
+      object(v, p, {"close_time"});
+      optional(v, p, "close_time", [&](const json& w, const std::string& q) { s.sewing.close_time = number(w, q); });
+    });
+    list(j, "", "attachments", false,
+         [&](const json& v, const std::string& p, size_t) { s.attachments.push_back(attachment(v, p)); });
     list(j, "", "obstacles", false,
          [&](const json& v, const std::string& p, size_t i) { s.obstacles.push_back(obstacle(v, p, i)); });
     optional(j, "", "output", [&](const json& v, const std::string& p) { s.output = output(v, p); });
@@ -256,30 +263,83 @@ class Reader {
     optional(j, ptr, "scale", [&](const json& v, const std::string& p) { t.scale = float3(v, p); });
   }
 
+  // A panel is a rectangle (size and resolution), a mesh (an OBJ file) or a sewing pattern.
   PanelDef panel(const json& j, const std::string& ptr) const {
     PanelDef pd;
-    object(j, ptr, {"name", "material", "size", "resolution", "position", "rotation", "scale"});
+    object(j, ptr, {"name", "material", "size", "resolution", "mesh", "pattern", "position", "rotation", "scale"});
     required(j, ptr, "name", [&](const json& v, const std::string& p) { pd.name = string(v, p); });
     required(j, ptr, "material", [&](const json& v, const std::string& p) { pd.material = string(v, p); });
-    required(j, ptr, "size", [&](const json& v, const std::string& p) {
-      const auto s = float2(v, p);
-      pd.width = s[0];
-      pd.height = s[1];
-    });
-    required(j, ptr, "resolution", [&](const json& v, const std::string& p) {
-      const auto r = int2(v, p);
-      pd.resolution_u = r[0];
-      pd.resolution_v = r[1];
-    });
+    const bool mesh = j.contains("mesh"), pattern = j.contains("pattern");
+    if (mesh && pattern) fail(ptr, "a panel is a rectangle (size, resolution), a mesh or a pattern, not both mesh and pattern");
+    if (mesh || pattern)
+      for (const char* k : {"size", "resolution"})
+        if (j.contains(k))
+          fail(ptr + "/" + k, std::string("only for rectangle panels; this one is a ") + (mesh ? "mesh" : "pattern"));
+    if (mesh) {
+      pd.shape = PanelShape::Mesh;
+      required(j, ptr, "mesh", [&](const json& v, const std::string& p) {
+        const std::filesystem::path f = string(v, p);
+        pd.mesh_file = (f.is_absolute() || dir_.empty() ? f : dir_ / f).lexically_normal().string();
+      });
+    } else if (pattern) {
+      pd.shape = PanelShape::Pattern;
+      required(j, ptr, "pattern", [&](const json& v, const std::string& p) { pd.pattern = pattern_def(v, p); });
+    } else {
+      required(j, ptr, "size", [&](const json& v, const std::string& p) {
+        const auto s = float2(v, p);
+        pd.width = s[0];
+        pd.height = s[1];
+      });
+      required(j, ptr, "resolution", [&](const json& v, const std::string& p) {
+        const auto r = int2(v, p);
+        pd.resolution_u = r[0];
+        pd.resolution_v = r[1];
+      });
+    }
     transform(j, ptr, pd.transform);
     return pd;
   }
 
+  PatternDef pattern_def(const json& j, const std::string& ptr) const {
+    PatternDef pd;
+    object(j, ptr, {"outline", "edge_length", "wrap_radius"});
+    list(j, ptr, "outline", true, [&](const json& v, const std::string& p, size_t) {
+      OutlineSegment seg;
+      object(v, p, {"name", "from", "control"});
+      optional(v, p, "name", [&](const json& w, const std::string& q) { seg.name = string(w, q); });
+      required(v, p, "from", [&](const json& w, const std::string& q) { seg.from = float2(w, q); });
+      optional(v, p, "control", [&](const json& w, const std::string& q) { seg.control = float2(w, q); });
+      pd.outline.push_back(seg);
+    });
+    required(j, ptr, "edge_length", [&](const json& v, const std::string& p) { pd.edge_length = number_f(v, p); });
+    optional(j, ptr, "wrap_radius", [&](const json& v, const std::string& p) { pd.wrap_radius = number_f(v, p); });
+    return pd;
+  }
+
+  // Which vertices of a panel: exactly one of a rectangle's edge, a pattern's segment or a mesh
+  // panel's boundary path (and, where `range_too`, an index range).
+  void path_fields(const json& j, const std::string& ptr, EdgeRef& e, std::optional<std::array<int, 2>>* range) const {
+    const int kinds = int(j.contains("edge")) + int(j.contains("segment")) + int(j.contains("path")) +
+                      int(range && j.contains("range"));
+    if (kinds != 1)
+      fail(ptr, range ? "needs exactly one of edge, segment or range" : "needs exactly one of edge, segment or path");
+    optional(j, ptr, "edge", [&](const json& v, const std::string& p) {
+      e.edge = string(v, p);
+      if (!is_edge(e.edge)) fail(p, bad_edge(e.edge));
+    });
+    optional(j, ptr, "segment", [&](const json& v, const std::string& p) {
+      e.segment = string(v, p);
+      if (e.segment.empty()) fail(p, "must not be empty");
+    });
+    if (!range) optional(j, ptr, "path", [&](const json& v, const std::string& p) { e.path = int2(v, p); });
+    if (range) optional(j, ptr, "range", [&](const json& v, const std::string& p) { *range = int2(v, p); });
+  }
+
   EdgeRef edge_ref(const json& j, const std::string& ptr) const {
     EdgeRef e;
-    object(j, ptr, {"panel", "edge"});
+    object(j, ptr, {"panel", "edge", "segment", "path"});
     required(j, ptr, "panel", [&](const json& v, const std::string& p) { e.panel = string(v, p); });
-    required(j, ptr, "edge", [&](const json& v, const std::string& p) { e.edge = string(v, p); });
+    path_fields(j, ptr, e, nullptr);
     return e;
   }
 
@@ -295,12 +355,13 @@ class Reader {
 
   PinDef pin(const json& j, const std::string& ptr) const {
     PinDef pd;
-    object(j, ptr, {"panel", "corner", "edge", "range"});
+    object(j, ptr, {"panel", "corner", "edge", "segment", "range"});
     required(j, ptr, "panel", [&](const json& v, const std::string& p) { pd.panel = string(v, p); });
     // Presence decides the kind of pin, so that "corner": "" is reported as a bad corner name
     // rather than as a missing one.
-    const int kinds = int(j.contains("corner")) + int(j.contains("edge")) + int(j.contains("range"));
-    if (kinds != 1) fail(ptr, "a pin needs exactly one of corner, edge or range");
+    const int kinds = int(j.contains("corner")) + int(j.contains("edge")) + int(j.contains("segment")) +
+                      int(j.contains("range"));
+    if (kinds != 1) fail(ptr, "a pin needs exactly one of corner, edge, segment or range");
     optional(j, ptr, "corner", [&](const json& v, const std::string& p) {
       pd.corner = string(v, p);
       if (!is_corner(pd.corner)) fail(p, bad_corner(pd.corner));
@@ -309,8 +370,31 @@ class Reader {
       pd.edge = string(v, p);
       if (!is_edge(pd.edge)) fail(p, bad_edge(pd.edge));
     });
+    optional(j, ptr, "segment", [&](const json& v, const std::string& p) {
+      pd.segment = string(v, p);
+      if (pd.segment.empty()) fail(p, "must not be empty");
+    });
     optional(j, ptr, "range", [&](const json& v, const std::string& p) { pd.range = int2(v, p); });
     return pd;
+  }
+
+  AttachmentDef attachment(const json& j, const std::string& ptr) const {
+    AttachmentDef a;
+    object(j, ptr, {"panel", "edge", "segment", "range", "obstacle", "obstacle_vertices", "stiffness", "damping", "lift"});
+    required(j, ptr, "panel", [&](const json& v, const std::string& p) { a.panel = string(v, p); });
+    EdgeRef e;
+    path_fields(j, ptr, e, &a.range);
+    a.edge = e.edge;
+    a.segment = e.segment;
+    required(j, ptr, "obstacle", [&](const json& v, const std::string& p) { a.obstacle = string(v, p); });
+    optional(j, ptr, "obstacle_vertices", [&](const json& v, const std::string& p) {
+      if (!v.is_array()) fail(p, std::string("expected an array of vertex numbers, got ") + v.type_name());
+      for (size_t i = 0; i < v.size(); ++i) a.obstacle_vertices.push_back(integer(v[i], p + "/" + std::to_string(i)));
+    });
+    optional(j, ptr, "stiffness", [&](const json& v, const std::string& p) { a.stiffness = number_f(v, p); });
+    optional(j, ptr, "damping", [&](const json& v, const std::string& p) { a.damping = number_f(v, p); });
+    optional(j, ptr, "lift", [&](const json& v, const std::string& p) { a.lift = number_f(v, p); });
+    return a;
   }
 
   ObstacleType obstacle_type(const json& j, const std::string& ptr) const {
@@ -555,16 +639,64 @@ void validate_scene(const SceneDef& s) {
     bool known = false;
     for (const auto& m : s.materials) known = known || m.name == pd.material;
     if (!known) fail(p + "/material", "unknown material '" + pd.material + "'");
-    if (!(pd.width > 0 && pd.height > 0))
-      fail(p + "/size", "both must be positive (got " + num_list(std::array<float, 2>{pd.width, pd.height}) + ")");
-    const std::array<int, 2> res{pd.resolution_u, pd.resolution_v};
-    if (res[0] < 2 || res[1] < 2) fail(p + "/resolution", "both must be at least 2 (got " + num_list(res) + ")");
-    // Vertex ids are 32-bit; far below that the run would not fit in memory anyway.
-    if (int64_t(res[0]) * res[1] > (int64_t(1) << 28))
-      fail(p + "/resolution", "too many vertices (got " + num_list(res) + ")");
+    switch (pd.shape) {
+      case PanelShape::Rectangle: {
+        if (!(pd.width > 0 && pd.height > 0))
+          fail(p + "/size", "both must be positive (got " + num_list(std::array<float, 2>{pd.width, pd.height}) + ")");
+        const std::array<int, 2> res{pd.resolution_u, pd.resolution_v};
+        if (res[0] < 2 || res[1] < 2) fail(p + "/resolution", "both must be at least 2 (got " + num_list(res) + ")");
+        // Vertex ids are 32-bit; far below that the run would not fit in memory anyway.
+        if (int64_t(res[0]) * res[1] > (int64_t(1) << 28))
+          fail(p + "/resolution", "too many vertices (got " + num_list(res) + ")");
+        break;
+      }
+      case PanelShape::Mesh:
+        if (pd.mesh_file.empty()) fail(p + "/mesh", "a mesh panel needs an OBJ file");
+        if (!std::filesystem::exists(pd.mesh_file)) fail(p + "/mesh", "OBJ file '" + pd.mesh_file + "' does not exist");
+        break;
+      case PanelShape::Pattern: {
+        const PatternDef& pat = pd.pattern;
+        if (pat.outline.size() < 3)
+          fail(p + "/pattern/outline", "needs at least 3 segments (got " + std::to_string(pat.outline.size()) + ")");
+        positive(pat.edge_length, p + "/pattern/edge_length");
+        if (pat.wrap_radius) positive(*pat.wrap_radius, p + "/pattern/wrap_radius");
+        for (size_t k = 0; k < pat.outline.size(); ++k) {
+          const std::string q = p + "/pattern/outline/" + std::to_string(k);
+          if (!std::isfinite(pat.outline[k].from[0]) || !std::isfinite(pat.outline[k].from[1])) fail(q + "/from", "must be finite");
+          for (size_t m = 0; m < k; ++m)
+            if (!pat.outline[k].name.empty() && pat.outline[m].name == pat.outline[k].name)
+              fail(q + "/name", "duplicate segment name '" + pat.outline[k].name + "' (also " + p + "/pattern/outline/" +
+                                    std::to_string(m) + ")");
+        }
+        break;
+      }
+    }
     check_transform(pd.transform, p);
   }
 
+  // A path must suit its panel: an edge of a rectangle, a segment of a pattern, a path of a mesh.
+  auto check_path = [&](const EdgeRef& r, const PanelDef& pd, const std::string& p) {
+    const int kinds = int(!r.edge.empty()) + int(!r.segment.empty()) + int(r.path.has_value());
+    if (kinds != 1) fail(p, "needs exactly one of edge, segment or path");
+    if (!r.edge.empty()) {
+      if (pd.shape != PanelShape::Rectangle)
+        fail(p + "/edge", "panel '" + pd.name + "' is not a rectangle; name an outline segment or a path");
+      if (!is_edge(r.edge)) fail(p + "/edge", Reader::bad_edge(r.edge));
+    }
+    if (!r.segment.empty()) {
+      if (pd.shape != PanelShape::Pattern) fail(p + "/segment", "panel '" + pd.name + "' is not a pattern");
+      bool known = false;
+      std::string names;
+      for (const auto& seg : pd.pattern.outline) {
+        known = known || seg.name == r.segment;
+        if (!seg.name.empty()) names += (names.empty() ? "" : ", ") + seg.name;
+      }
+      if (!known)
+        fail(p + "/segment", "panel '" + pd.name + "' has no segment '" + r.segment + "' (it has " +
+                                 (names.empty() ? std::string("no named segments") : names) + ")");
+    }
+    if (r.path && pd.shape != PanelShape::Mesh) fail(p + "/path", "panel '" + pd.name + "' is not a mesh panel");
+  };
   auto find_panel = [&](const std::string& name, const std::string& field) -> const PanelDef& {
     for (const auto& pd : s.panels)
       if (pd.name == name) return pd;
@@ -576,13 +708,15 @@ void validate_scene(const SceneDef& s) {
     const SeamDef& sd = s.seams[i];
     const std::string p = idx("seams", i);
     const PanelDef& pa = find_panel(sd.a.panel, p + "/a/panel");
-    if (!is_edge(sd.a.edge)) fail(p + "/a/edge", Reader::bad_edge(sd.a.edge));
     const PanelDef& pb = find_panel(sd.b.panel, p + "/b/panel");
-    if (!is_edge(sd.b.edge)) fail(p + "/b/edge", Reader::bad_edge(sd.b.edge));
-    const int na = edge_vertex_count(pa, sd.a.edge), nb = edge_vertex_count(pb, sd.b.edge);
-    if (na != nb)
-      fail(p, "edge '" + sd.a.edge + "' of panel '" + sd.a.panel + "' has " + std::to_string(na) +
-                  " vertices but edge '" + sd.b.edge + "' of panel '" + sd.b.panel + "' has " + std::to_string(nb));
+    check_path(sd.a, pa, p + "/a");
+    check_path(sd.b, pb, p + "/b");
+    if (pa.shape == PanelShape::Rectangle && pb.shape == PanelShape::Rectangle) {
+      const int na = edge_vertex_count(pa, sd.a.edge), nb = edge_vertex_count(pb, sd.b.edge);
+      if (na != nb)
+        fail(p, "edge '" + sd.a.edge + "' of panel '" + sd.a.panel + "' has " + std::to_string(na) +
+                    " vertices but edge '" + sd.b.edge + "' of panel '" + sd.b.panel + "' has " + std::to_string(nb));
+    }
     positive(sd.stiffness, p + "/stiffness");
   }
 
@@ -590,17 +724,39 @@ void validate_scene(const SceneDef& s) {
     const PinDef& pd = s.pins[i];
     const std::string p = idx("pins", i);
     const PanelDef& panel = find_panel(pd.panel, p + "/panel");
-    const int kinds = int(!pd.corner.empty()) + int(!pd.edge.empty()) + int(pd.range.has_value());
-    if (kinds != 1) fail(p, "a pin needs exactly one of corner, edge or range");
+    const int kinds = int(!pd.corner.empty()) + int(!pd.edge.empty()) + int(!pd.segment.empty()) + int(pd.range.has_value());
+    if (kinds != 1) fail(p, "a pin needs exactly one of corner, edge, segment or range");
     if (!pd.corner.empty() && !is_corner(pd.corner)) fail(p + "/corner", Reader::bad_corner(pd.corner));
-    if (!pd.edge.empty() && !is_edge(pd.edge)) fail(p + "/edge", Reader::bad_edge(pd.edge));
-    if (pd.range) {
+    if (!pd.corner.empty() && panel.shape != PanelShape::Rectangle)
+      fail(p + "/corner", "panel '" + panel.name + "' is not a rectangle; pin a segment or a range");
+    if (!pd.edge.empty() || !pd.segment.empty()) check_path(EdgeRef{pd.panel, pd.edge, pd.segment, std::nullopt}, panel, p);
+    if (pd.range && panel.shape == PanelShape::Rectangle) {
       const auto [first, last] = *pd.range;
       const int64_t count = int64_t(panel.resolution_u) * panel.resolution_v;
       if (first < 0 || last < first || last >= count)
         fail(p + "/range", "range [" + std::to_string(first) + ", " + std::to_string(last) + "] is outside panel '" +
                                panel.name + "' (vertices 0 to " + std::to_string(count - 1) + ")");
     }
+  }
+
+  non_negative(s.sewing.close_time, "/sewing/close_time");
+  for (size_t i = 0; i < s.attachments.size(); ++i) {
+    const AttachmentDef& a = s.attachments[i];
+    const std::string p = idx("attachments", i);
+    const PanelDef& panel = find_panel(a.panel, p + "/panel");
+    const int kinds = int(!a.edge.empty()) + int(!a.segment.empty()) + int(a.range.has_value());
+    if (kinds != 1) fail(p, "needs exactly one of edge, segment or range");
+    if (!a.range) check_path(EdgeRef{a.panel, a.edge, a.segment, std::nullopt}, panel, p);
+    bool known = false;
+    for (const auto& od : s.obstacles) known = known || od.name == a.obstacle;
+    if (!known) {
+      std::string names;
+      for (const auto& od : s.obstacles) names += (names.empty() ? "'" : ", '") + od.name + "'";
+      fail(p + "/obstacle", "unknown obstacle '" + a.obstacle + "' (the scene has " + (names.empty() ? "none" : names) + ")");
+    }
+    positive(a.stiffness, p + "/stiffness");
+    non_negative(a.damping, p + "/damping");
+    if (!std::isfinite(a.lift)) fail(p + "/lift", "must be finite");
   }
 
   validate_output(s.output, s.source);

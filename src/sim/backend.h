@@ -1,6 +1,7 @@
 // A backend runs whole steps over device-resident (CUDA) or host (CPU) state. Both call the same
 // per-vertex stages (sim/stages.h); they differ in the loop driver and the ray tracer.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -39,10 +40,14 @@ struct BackendInput {
   const ObstacleSet* obstacles;
 };
 
-// A step view with the scene's scalar parameters (collision settings, dt, gravity) filled in; the
-// backend adds its own array pointers.
-inline StepView step_view_for(const SceneDef& scene) {
+// A step view with the scene's scalar parameters (collision settings, dt, gravity, how far seams
+// have closed at the start of `step`) filled in; the backend adds its own array pointers.
+inline StepView step_view_for(const SceneDef& scene, const ClothModel& model, uint64_t step) {
   StepView s;
+  if (model.sew_time > 0) {
+    const double u = std::min(1.0, double(step) * scene.time.dt / double(model.sew_time));
+    s.sew = float(u * u * (3 - 2 * u));  // smoothstep: no jolt at either end
+  }
   s.coll.tolerance = scene.collision.tolerance;
   s.coll.thickness = scene.collision.thickness;
   s.coll.friction = scene.collision.friction;

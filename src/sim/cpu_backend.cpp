@@ -90,7 +90,7 @@ class CpuBackend final : public Backend {
     }
     collider_->update_cloth(x_.data());
     counters_ = StepCounters();
-    StepView s = view();
+    StepView s = view(step);
     add_time(Stage::Update, t);
     return s;
   }
@@ -165,8 +165,8 @@ class CpuBackend final : public Backend {
     }
   }
 
-  StepView view() {
-    StepView s = step_view_for(scene_);
+  StepView view(uint64_t step) {
+    StepView s = step_view_for(scene_, model_, step);
     s.model = model_.view();
     s.geom.obstacle_vertices = obstacle_x_.data();
     s.geom.obstacle_velocities = obstacles_.any_moving ? obstacle_v_.data() : nullptr;

@@ -153,7 +153,7 @@ class CudaBackend final : public Backend {
     refit_cloth_tree();
     k_reset_counters<<<1, 1, 0, stream_>>>(counters_.data());
     CUDA_CHECK_LAUNCH();
-    return view();
+    return view(step);
   }
 
   template <class F>
@@ -218,6 +218,14 @@ class CudaBackend final : public Backend {
     tri_alias_ = DeviceBuffer<uint32_t>(m.tri_alias);
     edges_ = DeviceBuffer<uint32_t>(m.edges);
     tri_edge_owner_ = DeviceBuffer<uint8_t>(m.tri_edge_owner);
+    adj_rest_start_ = DeviceBuffer<float>(m.adj_rest_start);
+    attach_slot_ = DeviceBuffer<uint32_t>(m.attach_slot);
+    attach_tri_ = DeviceBuffer<uint32_t>(m.attach_tri);
+    attach_bary_ = DeviceBuffer<Vec3>(m.attach_bary);
+    attach_offset_ = DeviceBuffer<Vec3>(m.attach_offset);
+    attach_lift_ = DeviceBuffer<float>(m.attach_lift);
+    attach_k_ = DeviceBuffer<float>(m.attach_k);
+    attach_kd_ = DeviceBuffer<float>(m.attach_kd);
 
     const std::vector<Vec3> zero(n, make_vec3(0, 0, 0));
     for (int b = 0; b < 2; ++b) {
@@ -290,9 +298,9 @@ class CudaBackend final : public Backend {
     CUDA_CHECK(cudaStreamSynchronize(stream_));  // `table` is pageable and goes out of scope
   }
 
-  StepView view() {
+  StepView view(uint64_t step) {
     const int cur = cur_, next = cur_ ^ 1;
-    StepView s = step_view_for(scene_);
+    StepView s = step_view_for(scene_, model_, step);
     s.model.num_vertices = model_.num_vertices();
     s.model.inv_mass = inv_mass_.data();
     s.model.damping = damping_.data();
@@ -308,6 +316,16 @@ class CudaBackend final : public Backend {
     s.model.num_edges = model_.num_edges();
     s.model.num_triangles = model_.num_collision_triangles();
     s.model.tri_edge_owner = tri_edge_owner_.data();
+    s.model.adj_rest_start = m_has_(adj_rest_start_);
+    if (attach_tri_.size() > 0) {
+      s.model.attach_slot = attach_slot_.data();
+      s.model.attach_tri = attach_tri_.data();
+      s.model.attach_bary = attach_bary_.data();
+      s.model.attach_offset = attach_offset_.data();
+      s.model.attach_lift = attach_lift_.data();
+      s.model.attach_k = attach_k_.data();
+      s.model.attach_kd = attach_kd_.data();
+    }
     s.geom.obstacle_vertices = obstacle_x_.data();
     s.geom.obstacle_velocities = obstacles_.any_moving ? obstacle_v_.data() : nullptr;
     s.geom.obstacle_indices = obstacle_indices_.data();
@@ -360,6 +378,11 @@ class CudaBackend final : public Backend {
   DeviceBuffer<float> inv_mass_, damping_, adj_rest_, adj_k_, adj_kd_;
   DeviceBuffer<uint32_t> adj_offset_, adj_other_, alias_, cloth_indices_, tri_alias_, edges_;
   DeviceBuffer<uint8_t> tri_edge_owner_;
+  // Seams closing over time and attachments (empty when the scene has none).
+  DeviceBuffer<float> adj_rest_start_, attach_lift_, attach_k_, attach_kd_;
+  DeviceBuffer<uint32_t> attach_slot_, attach_tri_;
+  DeviceBuffer<Vec3> attach_bary_, attach_offset_;
+  static const float* m_has_(const DeviceBuffer<float>& b) { return b.size() > 0 ? b.data() : nullptr; }
   DeviceBuffer<Vec3> x_[2], v_[2], contact_normal_;
   DeviceBuffer<Ray> rays_;
   DeviceBuffer<RawHit> hits_;

@@ -3,9 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <functional>
+#include <map>
 #include <set>
 
+#include "collide/proximity.h"
+#include "collide/rules.h"
 #include "raycloth/error.h"
+#include "scene/pattern.h"
 #include "scene/transform.h"
 
 namespace raycloth {
@@ -128,6 +133,16 @@ ModelView ClothModel::view() const {
   v.num_edges = num_edges();
   v.num_triangles = num_collision_triangles();
   v.tri_edge_owner = tri_edge_owner.data();
+  v.adj_rest_start = adj_rest_start.empty() ? nullptr : adj_rest_start.data();
+  if (!attach_tri.empty()) {
+    v.attach_slot = attach_slot.data();
+    v.attach_tri = attach_tri.data();
+    v.attach_bary = attach_bary.data();
+    v.attach_offset = attach_offset.data();
+    v.attach_lift = attach_lift.data();
+    v.attach_k = attach_k.data();
+    v.attach_kd = attach_kd.data();
+  }
   return v;
 }
 
@@ -141,12 +156,30 @@ float ClothModel::min_mass() const {
 float ClothModel::max_stiffness() const {
   float k = 0;
   for (const auto& s : springs) k = std::max(k, s.k);
+  for (float a : attach_k) k = std::max(k, a);
   return k;
 }
 
 double ClothModel::natural_period() const {
   const double k = max_stiffness();
   return k > 0 ? M_PI * std::sqrt(double(min_mass()) / k) : INFINITY;
+}
+
+double ClothModel::stability_limit(uint32_t* vertex) const {
+  double best = INFINITY;
+  for (uint32_t i = 0; i < num_vertices(); ++i) {
+    if (inv_mass[i] == 0.0f) continue;
+    double k = 0;
+    for (uint32_t e = adj_offset[i]; e < adj_offset[i + 1]; ++e) k += double(adj_k[e]);
+    if (!attach_slot.empty() && attach_slot[i] != kNoAttachment) k += double(attach_k[attach_slot[i]]);
+    if (k <= 0) continue;
+    const double limit = 2.0 * std::sqrt(double(mass[i]) / k);
+    if (limit < best) {
+      best = limit;
+      if (vertex) *vertex = i;
+    }
+  }
+  return best;
 }
 
 // Per-vertex adjacency (CSR) so that forces are gathered, never scattered.
@@ -166,6 +199,8 @@ void build_adjacency(ClothModel& model) {
   model.adj_rest.resize(e);
   model.adj_k.resize(e);
   model.adj_kd.resize(e);
+  if (model.sew_time > 0) model.adj_rest_start.resize(e);
+  else model.adj_rest_start.clear();
   std::vector<uint32_t> fill(model.adj_offset.begin(), model.adj_offset.end() - 1);
   for (const auto& sp : model.springs) {
     for (int side = 0; side < 2; ++side) {
@@ -175,83 +210,354 @@ void build_adjacency(ClothModel& model) {
       model.adj_rest[slot] = sp.rest;
       model.adj_k[slot] = sp.k;
       model.adj_kd[slot] = sp.damping;
+      if (model.sew_time > 0) model.adj_rest_start[slot] = sp.rest_start;
     }
   }
 }
 
+namespace {
+
+// One panel's mesh while the model is built: its rest shape (what the springs and masses keep),
+// its placed start positions, and its triangles, in panel-local vertex numbers. Seams may add
+// vertices on its boundary before the springs are made.
+struct PanelMesh {
+  bool grid = false;
+  uint32_t nu = 0, nv = 0;                       // grid only
+  std::vector<Vec3> rest, placed;
+  std::vector<uint32_t> tris;                    // 3 per triangle, counter-clockwise from the front
+  std::vector<std::string> segment_names;        // pattern only
+  std::vector<std::vector<uint32_t>> segments;   // pattern only: outline paths, kept up to date
+  std::vector<uint32_t> obj_to_local;            // mesh only: OBJ vertex number -> ours (UINT32_MAX: unused)
+  uint32_t size() const { return uint32_t(rest.size()); }
+};
+
+PanelMesh grid_mesh(const PanelDef& pd) {
+  PanelMesh pm;
+  pm.grid = true;
+  pm.nu = uint32_t(pd.resolution_u);
+  pm.nv = uint32_t(pd.resolution_v);
+  const Transform xf = make_transform(pd.transform);
+  for (uint32_t v = 0; v < pm.nv; ++v)
+    for (uint32_t u = 0; u < pm.nu; ++u) {
+      const Vec3 local = make_vec3((float(u) / float(pm.nu - 1) - 0.5f) * pd.width, 0.0f,
+                                   (float(v) / float(pm.nv - 1) - 0.5f) * pd.height);
+      pm.placed.push_back(xf.apply(local));
+    }
+  pm.rest = pm.placed;
+  auto at = [&](uint32_t u, uint32_t v) { return v * pm.nu + u; };
+  for (uint32_t v = 0; v + 1 < pm.nv; ++v)
+    for (uint32_t u = 0; u + 1 < pm.nu; ++u) {
+      const uint32_t a = at(u, v), b = at(u + 1, v), c = at(u + 1, v + 1), d = at(u, v + 1);
+      pm.tris.insert(pm.tris.end(), {a, d, c, a, c, b});  // counter-clockwise from +y
+    }
+  return pm;
+}
+
+// Every edge used by more than two triangles, or a triangle repeating a corner, is refused: the
+// springs and the collision surface need a manifold sheet.
+void check_manifold(const std::vector<uint32_t>& tris, const std::function<void(const std::string&)>& fail) {
+  std::map<std::pair<uint32_t, uint32_t>, int> uses;
+  for (size_t t = 0; t < tris.size(); t += 3) {
+    const uint32_t a = tris[t], b = tris[t + 1], c = tris[t + 2];
+    if (a == b || b == c || a == c)
+      fail("face " + std::to_string(t / 3 + 1) + " repeats a vertex (" + std::to_string(a) + ", " +
+           std::to_string(b) + ", " + std::to_string(c) + ")");
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t p = tris[t + k], q = tris[t + (k + 1) % 3];
+      if (++uses[{std::min(p, q), std::max(p, q)}] > 2)
+        fail("edge between vertices " + std::to_string(std::min(p, q)) + " and " + std::to_string(std::max(p, q)) +
+             " is shared by more than two faces; a cloth panel must be a manifold sheet");
+    }
+  }
+}
+
+PanelMesh obj_mesh(const SceneDef& s, const PanelDef& pd, const std::string& field) {
+  auto fail = [&](const std::string& reason) { throw InputError(s.source, field + "/mesh", "OBJ file '" + pd.mesh_file + "' " + reason); };
+  ObjTriangles obj = read_obj_triangles(pd.mesh_file, fail);
+  if (obj.indices.empty()) fail("is malformed: it has no faces");
+  check_manifold(obj.indices, fail);
+  // Vertices no face uses are dropped (an OBJ may carry them); the rest keep their order.
+  std::vector<uint32_t> remap(obj.vertices.size(), UINT32_MAX);
+  PanelMesh pm;
+  const Transform xf = make_transform(pd.transform);
+  for (uint32_t i : obj.indices)
+    if (remap[i] == UINT32_MAX) remap[i] = 0;
+  uint32_t next = 0;
+  for (size_t i = 0; i < obj.vertices.size(); ++i)
+    if (remap[i] == 0) {
+      remap[i] = next++;
+      pm.placed.push_back(xf.apply(obj.vertices[i]));
+    }
+  pm.rest = pm.placed;
+  for (uint32_t i : obj.indices) pm.tris.push_back(remap[i]);
+  pm.obj_to_local = std::move(remap);  // paths name OBJ vertex numbers
+  return pm;
+}
+
+PanelMesh pattern_mesh(const SceneDef& s, const PanelDef& pd, const std::string& field) {
+  const PatternMesh mesh = mesh_pattern(pd.pattern, [&](const std::string& f, const std::string& reason) {
+    throw InputError(s.source, field + "/pattern/" + f, reason);
+  });
+  PanelMesh pm;
+  const Transform xf = make_transform(pd.transform);
+  for (const auto& p : mesh.points) {
+    pm.rest.push_back(make_vec3(float(p[0]), float(p[1]), 0.0f));
+    Vec3 local = pm.rest.back();
+    if (pd.pattern.wrap_radius) {
+      const double r = *pd.pattern.wrap_radius, a = p[0] / r;
+      local = make_vec3(float(r * std::sin(a)), float(p[1]), float(r * std::cos(a)));
+    }
+    pm.placed.push_back(xf.apply(local));
+  }
+  pm.tris = mesh.triangles;
+  for (const auto& seg : pd.pattern.outline) pm.segment_names.push_back(seg.name);
+  pm.segments = mesh.segments;
+  return pm;
+}
+
+// Local vertex numbers along a path of a panel: a rectangle's edge, a pattern segment, or a mesh
+// panel's boundary from OBJ vertex `from` to `to`.
+std::vector<uint32_t> panel_path(const SceneDef& s, const PanelDef& pd, const PanelMesh& pm, const EdgeRef& ref,
+                                 const std::string& field) {
+  auto fail = [&](const std::string& f, const std::string& reason) { throw InputError(s.source, field + f, reason); };
+  const int kinds = int(!ref.edge.empty()) + int(!ref.segment.empty()) + int(ref.path.has_value());
+  if (kinds != 1) fail("", "needs exactly one of edge, segment or path");
+  if (!ref.edge.empty()) {
+    if (pd.shape != PanelShape::Rectangle)
+      fail("/edge", "panel '" + pd.name + "' is not a rectangle; name an outline segment or a path");
+    Piece p;
+    p.resolution_u = pm.nu;
+    p.resolution_v = pm.nv;
+    return edge_vertices(p, ref.edge, s.source, field + "/edge");
+  }
+  if (!ref.segment.empty()) {
+    if (pd.shape != PanelShape::Pattern) fail("/segment", "panel '" + pd.name + "' is not a pattern");
+    std::string known;
+    for (size_t k = 0; k < pm.segment_names.size(); ++k) {
+      if (pm.segment_names[k] == ref.segment) return pm.segments[k];
+      if (!pm.segment_names[k].empty()) known += (known.empty() ? "" : ", ") + pm.segment_names[k];
+    }
+    fail("/segment", "panel '" + pd.name + "' has no segment '" + ref.segment + "' (it has " +
+                         (known.empty() ? std::string("no named segments") : known) + ")");
+  }
+  if (pd.shape != PanelShape::Mesh) fail("/path", "panel '" + pd.name + "' is not a mesh panel");
+  const auto [from, to] = *ref.path;
+  const auto& obj_to_local = pm.obj_to_local;
+  auto local = [&](int v) {
+    if (v < 0 || size_t(v) >= obj_to_local.size() || obj_to_local[size_t(v)] == UINT32_MAX)
+      fail("/path", "vertex " + std::to_string(v) + " is not a vertex of panel '" + pd.name + "' (its faces use " +
+                        std::to_string(pm.size()) + " of " + std::to_string(obj_to_local.size()) + " OBJ vertices)");
+    return obj_to_local[size_t(v)];
+  };
+  const uint32_t a = local(from), b = local(to);
+  // The boundary: directed edges p -> q of the triangles whose reverse no triangle has.
+  std::set<std::pair<uint32_t, uint32_t>> directed;
+  for (size_t t = 0; t < pm.tris.size(); t += 3)
+    for (int k = 0; k < 3; ++k) directed.insert({pm.tris[t + k], pm.tris[t + (k + 1) % 3]});
+  std::map<uint32_t, uint32_t> next;
+  for (const auto& [p, q] : directed)
+    if (!directed.count({q, p})) next[p] = q;
+  if (!next.count(a)) fail("/path", "vertex " + std::to_string(from) + " is not on the boundary of panel '" + pd.name + "'");
+  if (!next.count(b)) fail("/path", "vertex " + std::to_string(to) + " is not on the boundary of panel '" + pd.name + "'");
+  std::vector<uint32_t> path{a};
+  for (uint32_t v = next[a]; path.size() <= next.size(); v = next[v]) {
+    path.push_back(v);
+    if (v == b) return path;
+    if (!next.count(v) || v == a) break;
+  }
+  fail("/path", "vertices " + std::to_string(from) + " and " + std::to_string(to) + " are not on one boundary loop of panel '" + pd.name + "'");
+  return {};
+}
+
+// Splits the boundary edge a-b at fraction t (from a): a new vertex on the edge, the one triangle
+// holding the edge split in two, and every stored outline path through a-b updated.
+uint32_t split_boundary_edge(PanelMesh& pm, uint32_t a, uint32_t b, float t) {
+  const uint32_t m = pm.size();
+  pm.rest.push_back(pm.rest[a] + (pm.rest[b] - pm.rest[a]) * t);
+  pm.placed.push_back(pm.placed[a] + (pm.placed[b] - pm.placed[a]) * t);
+  for (size_t tri = 0; tri < pm.tris.size(); tri += 3)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t p = pm.tris[tri + k], q = pm.tris[tri + (k + 1) % 3], r = pm.tris[tri + (k + 2) % 3];
+      if ((p == a && q == b) || (p == b && q == a)) {
+        pm.tris[tri + 0] = p, pm.tris[tri + 1] = m, pm.tris[tri + 2] = r;
+        pm.tris.insert(pm.tris.end(), {m, q, r});
+        goto split;
+      }
+    }
+  throw std::logic_error("split_boundary_edge: no triangle holds the edge");
+split:
+  for (auto& path : pm.segments) {
+      for (size_t i = 0; i + 1 < path.size(); ++i)
+        if ((path[i] == a && path[i + 1] == b) || (path[i] == b && path[i + 1] == a)) {
+          path.insert(path.begin() + std::ptrdiff_t(i) + 1, m);
+          break;
+        }
+  }
+  return m;
+}
+
+// Fractions of arc length (rest shape) along a path, 0 at its start and 1 at its end.
+std::vector<double> arc_fractions(const PanelMesh& pm, const std::vector<uint32_t>& path) {
+  std::vector<double> s(path.size(), 0.0);
+  for (size_t i = 1; i < path.size(); ++i) s[i] = s[i - 1] + double(length(pm.rest[path[i]] - pm.rest[path[i - 1]]));
+  const double total = s.back();
+  for (double& x : s) x = total > 0 ? x / total : 0.0;
+  return s;
+}
+
+}  // namespace
+
 ClothModel build_cloth_model(const SceneDef& s) {
   ClothModel m;
   if (s.panels.empty()) throw InputError(s.source, "/panels", "the scene has no cloth panels");
-  // Panels: vertices, masses, triangles and the grid springs of the paper (Fig. 1).
+  std::vector<PanelMesh> meshes;
   for (size_t pi = 0; pi < s.panels.size(); ++pi) {
     const PanelDef& pd = s.panels[pi];
     const std::string field = "/panels/" + std::to_string(pi);
+    find_material(s, pd.material, pi);
+    switch (pd.shape) {
+      case PanelShape::Rectangle:
+        if (pd.resolution_u < 2 || pd.resolution_v < 2)
+          throw InputError(s.source, field + "/resolution", "must be at least 2 x 2");
+        meshes.push_back(grid_mesh(pd));
+        break;
+      case PanelShape::Mesh: meshes.push_back(obj_mesh(s, pd, field)); break;
+      case PanelShape::Pattern: meshes.push_back(pattern_mesh(s, pd, field)); break;
+    }
+  }
+
+  // Seams: the two paths matched vertex to vertex (by arc length when their counts differ, adding
+  // vertices to pattern and mesh panels), each pair welded into one vertex below.
+  std::vector<std::array<std::pair<size_t, uint32_t>, 2>> pairs;  // (panel, local vertex) x 2
+  for (size_t si = 0; si < s.seams.size(); ++si) {
+    const SeamDef& sd = s.seams[si];
+    const std::string field = "/seams/" + std::to_string(si);
+    const size_t ia = find_panel(s, sd.a.panel, field + "/a/panel"), ib = find_panel(s, sd.b.panel, field + "/b/panel");
+    PanelMesh &ma = meshes[ia], &mb = meshes[ib];
+    std::vector<uint32_t> ea = panel_path(s, s.panels[ia], ma, sd.a, field + "/a");
+    std::vector<uint32_t> eb = panel_path(s, s.panels[ib], mb, sd.b, field + "/b");
+    if (sd.reverse) std::reverse(eb.begin(), eb.end());
+    auto name = [&](const EdgeRef& r) {
+      if (!r.edge.empty()) return "edge '" + r.edge + "' of panel '" + r.panel + "'";
+      if (!r.segment.empty()) return "segment '" + r.segment + "' of panel '" + r.panel + "'";
+      return "path " + std::to_string((*r.path)[0]) + "-" + std::to_string((*r.path)[1]) + " of panel '" + r.panel + "'";
+    };
+    if (ea.size() != eb.size() && (ma.grid || mb.grid))
+      throw InputError(s.source, field,
+                       name(sd.a) + " has " + std::to_string(ea.size()) + " vertices but " + name(sd.b) + " has " +
+                           std::to_string(eb.size()) + (ma.grid && mb.grid ? "" : "; a rectangle's edge is not resampled, give both the same count"));
+    if (ea.size() == eb.size()) {
+      for (size_t k = 0; k < ea.size(); ++k) pairs.push_back({{{ia, ea[k]}, {ib, eb[k]}}});
+      continue;
+    }
+    // Walk both paths by arc length: vertices closer than a quarter of the local spacing pair up;
+    // any other vertex gets a partner inserted on the other path's edge at the same fraction.
+    const std::vector<double> sa = arc_fractions(ma, ea), sb = arc_fractions(mb, eb);
+    pairs.push_back({{{ia, ea.front()}, {ib, eb.front()}}});
+    size_t i = 1, j = 1;
+    uint32_t prev_a = ea.front(), prev_b = eb.front();
+    double sprev_a = 0, sprev_b = 0;
+    const size_t na = ea.size() - 1, nb = eb.size() - 1;
+    while (i < na || j < nb) {
+      const double fa = i < na ? sa[i] : 1.0, fb = j < nb ? sb[j] : 1.0;
+      auto spacing = [](const std::vector<double>& f, size_t k, size_t last) {
+        return std::min(f[k] - f[k - 1], k < last ? f[k + 1] - f[k] : 1.0);
+      };
+      const double tol = 0.25 * std::min(spacing(sa, i, na), spacing(sb, j, nb));
+      if (i < na && j < nb && std::abs(fa - fb) <= tol) {
+        pairs.push_back({{{ia, ea[i]}, {ib, eb[j]}}});
+        prev_a = ea[i], prev_b = eb[j], sprev_a = fa, sprev_b = fb;
+        ++i, ++j;
+      } else if (fa < fb) {
+        const uint32_t nbv = split_boundary_edge(mb, prev_b, eb[j], float((fa - sprev_b) / (sb[j] - sprev_b)));
+        pairs.push_back({{{ia, ea[i]}, {ib, nbv}}});
+        prev_a = ea[i], prev_b = nbv, sprev_a = fa, sprev_b = fa;
+        ++i;
+      } else {
+        const uint32_t nav = split_boundary_edge(ma, prev_a, ea[i], float((fb - sprev_a) / (sa[i] - sprev_a)));
+        pairs.push_back({{{ia, nav}, {ib, eb[j]}}});
+        prev_a = nav, prev_b = eb[j], sprev_a = fb, sprev_b = fb;
+        ++j;
+      }
+    }
+    pairs.push_back({{{ia, ea.back()}, {ib, eb.back()}}});
+  }
+
+  // The panels one after another: vertices, masses, triangles, springs.
+  for (size_t pi = 0; pi < s.panels.size(); ++pi) {
+    const PanelDef& pd = s.panels[pi];
     const MaterialDef& mat = find_material(s, pd.material, pi);
-    if (pd.resolution_u < 2 || pd.resolution_v < 2)
-      throw InputError(s.source, field + "/resolution", "must be at least 2 x 2");
+    const PanelMesh& pm = meshes[pi];
     Piece p;
     p.name = pd.name;
     p.first_vertex = m.num_vertices();
-    p.resolution_u = uint32_t(pd.resolution_u);
-    p.resolution_v = uint32_t(pd.resolution_v);
+    p.vertex_count = pm.size();
+    p.resolution_u = pm.grid ? pm.nu : 0;
+    p.resolution_v = pm.grid ? pm.nv : 0;
     p.first_triangle = m.num_triangles();
-    const Transform xf = make_transform(pd.transform);
-    const uint32_t nu = p.resolution_u, nv = p.resolution_v;
-    const float vertex_mass = mat.density * pd.width * pd.height / float(nu * nv);
-    for (uint32_t v = 0; v < nv; ++v)
-      for (uint32_t u = 0; u < nu; ++u) {
-        const Vec3 local = make_vec3((float(u) / float(nu - 1) - 0.5f) * pd.width, 0.0f,
-                                     (float(v) / float(nv - 1) - 0.5f) * pd.height);
-        m.initial_positions.push_back(xf.apply(local));
-        m.mass.push_back(vertex_mass);
-        m.inv_mass.push_back(1.0f / vertex_mass);
-        m.damping.push_back(mat.damping);
-      }
-    auto at = [&](uint32_t u, uint32_t v) { return p.first_vertex + v * nu + u; };
+    const uint32_t base = p.first_vertex;
+    m.initial_positions.insert(m.initial_positions.end(), pm.placed.begin(), pm.placed.end());
+    m.rest_positions.insert(m.rest_positions.end(), pm.rest.begin(), pm.rest.end());
+    for (uint32_t i : pm.tris) m.triangles.push_back(base + i);
     auto spring = [&](uint32_t a, uint32_t b, float k, SpringType t) {
-      const float rest = length(m.initial_positions[b] - m.initial_positions[a]);
-      m.springs.push_back({a, b, rest, k, mat.spring_damping, t});
+      const float rest = length(pm.rest[b] - pm.rest[a]);
+      m.springs.push_back({base + a, base + b, rest, k, mat.spring_damping, t});
     };
-    for (uint32_t v = 0; v < nv; ++v)
-      for (uint32_t u = 0; u < nu; ++u) {
-        if (u + 1 < nu) spring(at(u, v), at(u + 1, v), mat.stretch, SpringType::Stretch);
-        if (v + 1 < nv) spring(at(u, v), at(u, v + 1), mat.stretch, SpringType::Stretch);
-        if (u + 1 < nu && v + 1 < nv) {
-          spring(at(u, v), at(u + 1, v + 1), mat.shear, SpringType::Shear);
-          spring(at(u + 1, v), at(u, v + 1), mat.shear, SpringType::Shear);
+    if (pm.grid) {
+      // The paper's grid (Fig. 1): equal masses, stretch, shear and bend springs.
+      const uint32_t nu = pm.nu, nv = pm.nv;
+      const float vertex_mass = mat.density * pd.width * pd.height / float(nu * nv);
+      m.mass.insert(m.mass.end(), pm.size(), vertex_mass);
+      auto at = [&](uint32_t u, uint32_t v) { return v * nu + u; };
+      for (uint32_t v = 0; v < nv; ++v)
+        for (uint32_t u = 0; u < nu; ++u) {
+          if (u + 1 < nu) spring(at(u, v), at(u + 1, v), mat.stretch, SpringType::Stretch);
+          if (v + 1 < nv) spring(at(u, v), at(u, v + 1), mat.stretch, SpringType::Stretch);
+          if (u + 1 < nu && v + 1 < nv) {
+            spring(at(u, v), at(u + 1, v + 1), mat.shear, SpringType::Shear);
+            spring(at(u + 1, v), at(u, v + 1), mat.shear, SpringType::Shear);
+          }
+          if (u + 2 < nu) spring(at(u, v), at(u + 2, v), mat.bend, SpringType::Bend);
+          if (v + 2 < nv) spring(at(u, v), at(u, v + 2), mat.bend, SpringType::Bend);
         }
-        if (u + 2 < nu) spring(at(u, v), at(u + 2, v), mat.bend, SpringType::Bend);
-        if (v + 2 < nv) spring(at(u, v), at(u, v + 2), mat.bend, SpringType::Bend);
-        if (u + 1 < nu && v + 1 < nv) {
-          const uint32_t a = at(u, v), b = at(u + 1, v), c = at(u + 1, v + 1), d = at(u, v + 1);
-          m.triangles.insert(m.triangles.end(), {a, d, c, a, c, b});  // counter-clockwise from +y
+    } else {
+      // A triangle mesh: a third of each triangle's rest area to each corner; a stretch spring on
+      // every edge; a bend spring across every interior edge, between the two opposite corners.
+      std::vector<float> mass(pm.size(), 0.0f);
+      std::map<std::pair<uint32_t, uint32_t>, std::vector<uint32_t>> opposite;
+      for (size_t t = 0; t < pm.tris.size(); t += 3) {
+        const uint32_t a = pm.tris[t], b = pm.tris[t + 1], c = pm.tris[t + 2];
+        const float area = 0.5f * length(cross(pm.rest[b] - pm.rest[a], pm.rest[c] - pm.rest[a]));
+        for (int k = 0; k < 3; ++k) {
+          mass[pm.tris[t + k]] += mat.density * area / 3.0f;
+          const uint32_t p = pm.tris[t + k], q = pm.tris[t + (k + 1) % 3];
+          opposite[{std::min(p, q), std::max(p, q)}].push_back(pm.tris[t + (k + 2) % 3]);
         }
       }
+      for (uint32_t i = 0; i < pm.size(); ++i)
+        if (!(mass[i] > 0))
+          throw InputError(s.source, "/panels/" + std::to_string(pi),
+                           "vertex " + std::to_string(i) + " of panel '" + pd.name + "' has no area around it (degenerate triangles)");
+      m.mass.insert(m.mass.end(), mass.begin(), mass.end());
+      for (const auto& [e, opp] : opposite) {
+        spring(e.first, e.second, mat.stretch, SpringType::Stretch);
+        if (opp.size() == 2 && opp[0] != opp[1]) spring(opp[0], opp[1], mat.bend, SpringType::Bend);
+      }
+    }
+    for (uint32_t i = 0; i < pm.size(); ++i) {
+      m.inv_mass.push_back(1.0f / m.mass[base + i]);
+      m.damping.push_back(mat.damping);
+    }
     p.num_triangles = m.num_triangles() - p.first_triangle;
     m.pieces.push_back(p);
   }
 
-  // Seams: matched boundary vertices are welded into one vertex (the smallest index of each group
-  // represents it), so the triangles on both sides share it and no gap or overlap can open there.
   std::vector<uint32_t> parent(m.num_vertices());
   std::iota(parent.begin(), parent.end(), 0u);
-  for (size_t si = 0; si < s.seams.size(); ++si) {
-    const SeamDef& sd = s.seams[si];
-    const std::string field = "/seams/" + std::to_string(si);
-    const Piece& pa = m.pieces[find_panel(s, sd.a.panel, field + "/a/panel")];
-    const Piece& pb = m.pieces[find_panel(s, sd.b.panel, field + "/b/panel")];
-    auto ea = edge_vertices(pa, sd.a.edge, s.source, field + "/a/edge");
-    auto eb = edge_vertices(pb, sd.b.edge, s.source, field + "/b/edge");
-    if (ea.size() != eb.size())
-      throw InputError(s.source, field,
-                       "edge '" + sd.a.edge + "' of panel '" + sd.a.panel + "' has " + std::to_string(ea.size()) +
-                           " vertices but edge '" + sd.b.edge + "' of panel '" + sd.b.panel + "' has " +
-                           std::to_string(eb.size()));
-    if (sd.reverse) std::reverse(eb.begin(), eb.end());
-    for (size_t k = 0; k < ea.size(); ++k) {
-      const uint32_t ra = find_root(parent, ea[k]), rb = find_root(parent, eb[k]);
-      parent[std::max(ra, rb)] = std::min(ra, rb);
-    }
+  for (const auto& pr : pairs) {
+    const uint32_t ra = find_root(parent, m.pieces[pr[0].first].first_vertex + pr[0].second);
+    const uint32_t rb = find_root(parent, m.pieces[pr[1].first].first_vertex + pr[1].second);
+    parent[std::max(ra, rb)] = std::min(ra, rb);
   }
   m.alias.resize(m.num_vertices());
   for (uint32_t i = 0; i < m.num_vertices(); ++i) m.alias[i] = find_root(parent, i);
@@ -259,9 +565,12 @@ ClothModel build_cloth_model(const SceneDef& s) {
   for (size_t pi = 0; pi < s.pins.size(); ++pi) {
     const PinDef& pd = s.pins[pi];
     const std::string field = "/pins/" + std::to_string(pi);
-    const Piece& p = m.pieces[find_panel(s, pd.panel, field + "/panel")];
+    const size_t panel = find_panel(s, pd.panel, field + "/panel");
+    const Piece& p = m.pieces[panel];
     std::vector<uint32_t> ids;
     if (!pd.corner.empty()) {
+      if (p.resolution_u == 0)
+        throw InputError(s.source, field + "/corner", "panel '" + p.name + "' is not a rectangle; pin a segment or a range");
       const uint32_t nu = p.resolution_u, nv = p.resolution_v;
       const std::string& c = pd.corner;
       uint32_t u, v;
@@ -273,8 +582,9 @@ ClothModel build_cloth_model(const SceneDef& s) {
         throw InputError(s.source, field + "/corner",
                          "unknown corner '" + c + "' (expected bottom_left, bottom_right, top_left or top_right)");
       ids.push_back(p.first_vertex + v * nu + u);
-    } else if (!pd.edge.empty()) {
-      ids = edge_vertices(p, pd.edge, s.source, field + "/edge");
+    } else if (!pd.edge.empty() || !pd.segment.empty()) {
+      EdgeRef ref{pd.panel, pd.edge, pd.segment, std::nullopt};
+      for (uint32_t i : panel_path(s, s.panels[panel], meshes[panel], ref, field)) ids.push_back(p.first_vertex + i);
     } else if (pd.range) {
       const auto [first, last] = *pd.range;
       if (first < 0 || last < first || uint32_t(last) >= p.num_vertices())
@@ -283,14 +593,118 @@ ClothModel build_cloth_model(const SceneDef& s) {
                              p.name + "' (vertices 0 to " + std::to_string(p.num_vertices() - 1) + ")");
       for (int i = first; i <= last; ++i) ids.push_back(p.first_vertex + uint32_t(i));
     } else {
-      throw InputError(s.source, field, "a pin needs one of corner, edge or range");
+      throw InputError(s.source, field, "a pin needs one of corner, edge, segment or range");
     }
     for (uint32_t id : ids) m.inv_mass[id] = 0.0f;
   }
+  // What attachments name, kept for resolve_attachments (which needs the obstacles too).
+  for (size_t ai = 0; ai < s.attachments.size(); ++ai) {
+    const AttachmentDef& ad = s.attachments[ai];
+    const std::string field = "/attachments/" + std::to_string(ai);
+    const size_t panel = find_panel(s, ad.panel, field + "/panel");
+    const Piece& p = m.pieces[panel];
+    std::vector<uint32_t> ids;
+    if (ad.range) {
+      const auto [first, last] = *ad.range;
+      if (!ad.edge.empty() || !ad.segment.empty())
+        throw InputError(s.source, field, "needs exactly one of edge, segment or range");
+      if (first < 0 || last < first || uint32_t(last) >= p.num_vertices())
+        throw InputError(s.source, field + "/range",
+                         "range [" + std::to_string(first) + ", " + std::to_string(last) + "] is outside panel '" +
+                             p.name + "' (vertices 0 to " + std::to_string(p.num_vertices() - 1) + ")");
+      for (int i = first; i <= last; ++i) ids.push_back(p.first_vertex + uint32_t(i));
+    } else {
+      EdgeRef ref{ad.panel, ad.edge, ad.segment, std::nullopt};
+      for (uint32_t i : panel_path(s, s.panels[panel], meshes[panel], ref, field)) ids.push_back(p.first_vertex + i);
+    }
+    m.attachment_vertices.push_back(std::move(ids));
+  }
 
   weld_seams(m);
+  // Rest lengths at the placed start (after welding): where the springs start when seams close
+  // over time (scene.sewing.close_time).
+  if (s.sewing.close_time > 0) {
+    for (Spring& sp : m.springs) sp.rest_start = length(m.initial_positions[sp.b] - m.initial_positions[sp.a]);
+    m.sew_time = float(s.sewing.close_time);
+  }
   build_adjacency(m);
   return m;
+}
+
+void resolve_attachments(ClothModel& m, const ObstacleSet& obstacles, const SceneDef& s) {
+  m.attach_slot.clear(), m.attach_tri.clear(), m.attach_bary.clear(), m.attach_offset.clear();
+  m.attach_lift.clear(), m.attach_k.clear(), m.attach_kd.clear();
+  if (s.attachments.empty()) return;
+  m.attach_slot.assign(m.num_vertices(), kNoAttachment);
+  std::vector<Vec3> ox, ov;
+  obstacles.pose_at(0.0, ox, ov);
+  const auto& idx = obstacles.world.indices;
+  for (size_t ai = 0; ai < s.attachments.size(); ++ai) {
+    const AttachmentDef& ad = s.attachments[ai];
+    const std::string field = "/attachments/" + std::to_string(ai);
+    size_t oi = obstacles.names.size();
+    std::string known;
+    for (size_t k = 0; k < obstacles.names.size(); ++k) {
+      if (obstacles.names[k] == ad.obstacle) oi = k;
+      known += (known.empty() ? "" : ", ") + ("'" + obstacles.names[k] + "'");
+    }
+    if (oi == obstacles.names.size())
+      throw InputError(s.source, field + "/obstacle",
+                       "unknown obstacle '" + ad.obstacle + "' (the scene has " + (known.empty() ? "none" : known) + ")");
+    const uint32_t t0 = obstacles.first_triangle[oi];
+    const uint32_t t1 = oi + 1 < obstacles.names.size() ? obstacles.first_triangle[oi + 1] : uint32_t(obstacles.world.num_triangles());
+    const uint32_t v0 = obstacles.first_vertex[oi], nv = uint32_t(obstacles.local[oi].vertices.size());
+    const std::vector<uint32_t>& cloth = m.attachment_vertices[ai];
+    if (!ad.obstacle_vertices.empty() && ad.obstacle_vertices.size() != cloth.size())
+      throw InputError(s.source, field + "/obstacle_vertices",
+                       "has " + std::to_string(ad.obstacle_vertices.size()) + " vertices but the attached cloth path has " +
+                           std::to_string(cloth.size()));
+    for (size_t k = 0; k < cloth.size(); ++k) {
+      const uint32_t ci = m.alias[cloth[k]];
+      if (m.attach_slot[ci] != kNoAttachment) continue;  // seam partners, or named twice: the first wins
+      uint32_t tri = t0;
+      Vec3 bary = make_vec3(1, 0, 0);
+      if (!ad.obstacle_vertices.empty()) {
+        const int bv = ad.obstacle_vertices[k];
+        if (bv < 0 || uint32_t(bv) >= nv)
+          throw InputError(s.source, field + "/obstacle_vertices/" + std::to_string(k),
+                           "vertex " + std::to_string(bv) + " is outside obstacle '" + ad.obstacle + "' (vertices 0 to " +
+                               std::to_string(nv - 1) + ")");
+        bool found = false;
+        for (uint32_t t = t0; t < t1 && !found; ++t)
+          for (int c = 0; c < 3 && !found; ++c)
+            if (idx[3 * t + c] == v0 + uint32_t(bv)) {
+              tri = t, found = true;
+              bary = make_vec3(c == 0, c == 1, c == 2);
+            }
+        if (!found)
+          throw InputError(s.source, field + "/obstacle_vertices/" + std::to_string(k),
+                           "vertex " + std::to_string(bv) + " of obstacle '" + ad.obstacle + "' is on no triangle");
+      } else {
+        // The nearest point of the obstacle's surface to the cloth vertex at the start.
+        const Vec3 p = m.initial_positions[ci];
+        double best = INFINITY;
+        for (uint32_t t = t0; t < t1; ++t) {
+          const Vec3 a = ox[idx[3 * t]], b = ox[idx[3 * t + 1]], c = ox[idx[3 * t + 2]];
+          auto d3 = [](Vec3 v) { return DVec3{double(v.x), double(v.y), double(v.z)}; };
+          const TrianglePoint q = closest_on_triangle(d3(p), d3(a), d3(b), d3(c));
+          if (q.dist2 < best) best = q.dist2, tri = t, bary = make_vec3(float(q.wa), float(q.wb), float(q.wc));
+        }
+      }
+      m.attach_slot[ci] = uint32_t(m.attach_tri.size());
+      m.attach_tri.push_back(tri);
+      m.attach_bary.push_back(bary);
+      {
+        const Vec3 a = ox[idx[3 * tri]], b = ox[idx[3 * tri + 1]], c = ox[idx[3 * tri + 2]];
+        const Vec3 target = a * bary.x + b * bary.y + c * bary.z + triangle_normal(ox.data(), idx.data(), tri) * ad.lift;
+        // With seams closing over time the pull starts where the vertex is and eases onto the body.
+        m.attach_offset.push_back(m.sew_time > 0 ? m.initial_positions[ci] - target : make_vec3(0, 0, 0));
+      }
+      m.attach_lift.push_back(ad.lift);
+      m.attach_k.push_back(ad.stiffness);
+      m.attach_kd.push_back(ad.damping);
+    }
+  }
 }
 
 ObstacleSet build_obstacles(const SceneDef& s) {

@@ -20,13 +20,15 @@ struct Spring {
   uint32_t a, b;
   float rest, k, damping;
   SpringType type;
+  float rest_start = 0;  // length in the placed start state (used while seams close)
 };
 
 struct Piece {
   std::string name;
-  uint32_t first_vertex = 0, resolution_u = 0, resolution_v = 0;
+  uint32_t first_vertex = 0, vertex_count = 0;
+  uint32_t resolution_u = 0, resolution_v = 0;  // rectangles (grids) only; 0 for mesh and pattern panels
   uint32_t first_triangle = 0, num_triangles = 0;
-  uint32_t num_vertices() const { return resolution_u * resolution_v; }
+  uint32_t num_vertices() const { return vertex_count; }
 };
 
 // Plain pointers into a model's arrays: what the per-vertex functions read, on host or device.
@@ -48,7 +50,19 @@ struct ModelView {
   const uint8_t* tri_edge_owner = nullptr;  // per triangle: bit k set when it is the lowest-numbered
                                             // triangle holding its edge k (corners k, k+1); bit 3 + k
                                             // when it is the lowest-numbered one holding corner k
+  const float* adj_rest_start = nullptr;    // null unless seams close over time: rest lengths at the start
+  // Attachments: per vertex the attachment slot or kNoAttachment (null when there are none); per
+  // slot the obstacle triangle (world numbering), barycentric weights, lift, stiffness, damping.
+  const uint32_t* attach_slot = nullptr;
+  const uint32_t* attach_tri = nullptr;
+  const Vec3* attach_bary = nullptr;
+  const Vec3* attach_offset = nullptr;  // start position minus body point at t = 0: eased out while seams close
+  const float* attach_lift = nullptr;
+  const float* attach_k = nullptr;
+  const float* attach_kd = nullptr;
 };
+
+inline constexpr uint32_t kNoAttachment = 0xFFFFFFFFu;
 
 struct ClothModel {
   std::vector<Piece> pieces;
@@ -57,8 +71,15 @@ struct ClothModel {
   std::vector<Spring> springs;
   std::array<size_t, 4> spring_counts{};  // by SpringType
   std::vector<uint32_t> adj_offset, adj_other;
-  std::vector<float> adj_rest, adj_k, adj_kd;
+  std::vector<float> adj_rest, adj_k, adj_kd, adj_rest_start;
   std::vector<uint32_t> alias;
+  std::vector<Vec3> rest_positions;  // each panel's own shape (a pattern's plane, a mesh's OBJ coordinates)
+  float sew_time = 0;                // seconds over which rest lengths go from adj_rest_start to adj_rest
+  // Cloth vertices of each scene attachment (before welding), and the resolved attachments.
+  std::vector<std::vector<uint32_t>> attachment_vertices;
+  std::vector<uint32_t> attach_slot, attach_tri;
+  std::vector<Vec3> attach_bary, attach_offset;
+  std::vector<float> attach_lift, attach_k, attach_kd;
   std::vector<uint32_t> triangles;            // the cloth surface, 3 per triangle, panel by panel
   // What the rays and the bound see: `triangles` with every corner replaced by its seam
   // representative (welded seams), and those corners' aliases.
@@ -77,6 +98,12 @@ struct ClothModel {
   float min_mass() const;
   float max_stiffness() const;
   double natural_period() const;
+  // The largest stable time step of the explicit (symplectic) Euler step over the whole mesh:
+  // omega dt < 2 for its highest frequency, estimated per vertex as omega^2 = K / m with K the sum
+  // of the vertex's spring (and attachment) stiffnesses, so dt < 2 sqrt(m / K). Where many springs
+  // meet a light vertex (mesh boundaries, small cloths) this is stricter than the paper's T0.
+  // Sets *vertex to the vertex that sets it.
+  double stability_limit(uint32_t* vertex = nullptr) const;
 };
 
 // Obstacles merged into one world-space mesh; moving ones keep their local mesh and motion.
@@ -100,5 +127,8 @@ void build_adjacency(ClothModel& model);
 // Builds the model; throws InputError for seams or pins that do not fit the panels.
 ClothModel build_cloth_model(const SceneDef& scene);
 ObstacleSet build_obstacles(const SceneDef& scene);
+// Binds the scene's attachments to obstacle surface points (the given obstacle vertices, or the
+// nearest surface points at t = 0); throws InputError for an unknown obstacle or a bad vertex list.
+void resolve_attachments(ClothModel& model, const ObstacleSet& obstacles, const SceneDef& scene);
 
 }  // namespace raycloth

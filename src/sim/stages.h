@@ -70,6 +70,7 @@ struct StepView {
   CollisionGeometry geom;      // obstacle vertices/velocities at t + dt, cloth at x
   Vec3 gravity;
   float blowup_limit = 1e4f;   // |x| past this (metres) is a blow-up
+  float sew = 1.0f;            // how far seams have closed (0 -> 1 over the model's sew_time)
   const Vec3* x = nullptr;     // state at t
   const Vec3* v = nullptr;
   Vec3* x_next = nullptr;      // state at t + dt
@@ -98,8 +99,30 @@ inline constexpr uint32_t kFlagBlowup = 4u;   // integration gave a non-finite o
 
 RC_HD bool is_representative(const ModelView& m, uint32_t i) { return m.alias[i] == i; }
 
+// An attachment's pull on vertex i: a spring of rest length 0 to its body point at t + dt (lifted
+// along the body triangle's normal), damped along the velocity relative to that point. While seams
+// close the point starts at the vertex's start position and eases onto the body.
+RC_HD Vec3 attachment_force(const StepView& s, uint32_t i) {
+  const ModelView& m = s.model;
+  if (!m.attach_slot || m.attach_slot[i] == kNoAttachment) return make_vec3(0, 0, 0);
+  const uint32_t k = m.attach_slot[i];
+  const uint32_t* t = s.geom.obstacle_indices + 3 * m.attach_tri[k];
+  const Vec3* ov = s.geom.obstacle_vertices;
+  const Vec3 w = m.attach_bary[k];
+  const Vec3 n = triangle_normal(ov, s.geom.obstacle_indices, m.attach_tri[k]);
+  const Vec3 target = ov[t[0]] * w.x + ov[t[1]] * w.y + ov[t[2]] * w.z + n * m.attach_lift[k] +
+                      m.attach_offset[k] * (1.0f - s.sew);
+  Vec3 target_v = make_vec3(0, 0, 0);
+  if (s.geom.obstacle_velocities) {
+    const Vec3* vv = s.geom.obstacle_velocities;
+    target_v = vv[t[0]] * w.x + vv[t[1]] * w.y + vv[t[2]] * w.z;
+  }
+  return (target - s.x[i]) * m.attach_k[k] + (target_v - s.v[i]) * m.attach_kd[k];
+}
+
 RC_HD void stage_integrate(const StepView& s, uint32_t i) {
-  integrate_vertex(s.model, s.x, s.v, i, s.gravity, s.coll.dt, s.v_next[i], s.x_next[i]);
+  integrate_vertex(s.model, s.x, s.v, i, s.gravity, s.coll.dt, s.v_next[i], s.x_next[i], s.sew,
+                   attachment_force(s, i));
   s.contacts[i] = Contact();
   s.rays[i] = s.model.inv_mass[i] == 0.0f ? Ray() : velocity_ray(s.x[i], s.x_next[i], i, s.coll);
   s.rays[i].vertex = i;

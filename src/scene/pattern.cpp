@@ -1,0 +1,157 @@
+#include "scene/pattern.h"
+
+#include <CGAL/Constrained_Delaunay_triangulation_2.h>
+#include <CGAL/Constrained_triangulation_plus_2.h>
+#include <CGAL/Delaunay_mesh_face_base_2.h>
+#include <CGAL/Delaunay_mesh_size_criteria_2.h>
+#include <CGAL/Delaunay_mesh_vertex_base_2.h>
+#include <CGAL/Delaunay_mesher_2.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_2.h>
+
+#include <cmath>
+#include <map>
+#include <set>
+
+namespace raycloth {
+
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Vb = CGAL::Delaunay_mesh_vertex_base_2<K>;
+using Fb = CGAL::Delaunay_mesh_face_base_2<K>;
+using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
+using Cdt = CGAL::Constrained_Delaunay_triangulation_2<K, Tds, CGAL::Exact_predicates_tag>;
+using CdtPlus = CGAL::Constrained_triangulation_plus_2<Cdt>;
+using Criteria = CGAL::Delaunay_mesh_size_criteria_2<CdtPlus>;
+using P2 = std::array<double, 2>;
+
+// More vertices than this in one pattern piece is refused (the estimate is area / edge_length^2).
+constexpr double kMaxPatternVertices = double(1 << 22);
+
+P2 lerp(const P2& a, const P2& b, double t) { return {a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t}; }
+double dist(const P2& a, const P2& b) { return std::hypot(b[0] - a[0], b[1] - a[1]); }
+P2 p2(const std::array<float, 2>& a) { return {double(a[0]), double(a[1])}; }
+
+// A quadratic Bezier (or a line without control) from a to b as a fine polyline.
+std::vector<P2> fine_curve(const P2& a, const P2& b, const std::optional<std::array<float, 2>>& control) {
+  if (!control) return {a, b};
+  const P2 c = p2(*control);
+  std::vector<P2> pts;
+  constexpr int kFine = 256;
+  for (int i = 0; i <= kFine; ++i) {
+    const double t = double(i) / kFine;
+    pts.push_back(lerp(lerp(a, c, t), lerp(c, b, t), t));
+  }
+  return pts;
+}
+
+// Points along a fine polyline at n equal arc-length steps, from its start up to (excluding) its end.
+std::vector<P2> resample(const std::vector<P2>& fine, int n) {
+  std::vector<double> s(fine.size(), 0.0);
+  for (size_t i = 1; i < fine.size(); ++i) s[i] = s[i - 1] + dist(fine[i - 1], fine[i]);
+  std::vector<P2> out;
+  size_t k = 1;
+  for (int i = 0; i < n; ++i) {
+    const double target = s.back() * double(i) / double(n);
+    while (k + 1 < fine.size() && s[k] < target) ++k;
+    const double span = s[k] - s[k - 1];
+    out.push_back(span > 0 ? lerp(fine[k - 1], fine[k], (target - s[k - 1]) / span) : fine[k - 1]);
+  }
+  return out;
+}
+
+double fine_length(const std::vector<P2>& fine) {
+  double l = 0;
+  for (size_t i = 1; i < fine.size(); ++i) l += dist(fine[i - 1], fine[i]);
+  return l;
+}
+
+}  // namespace
+
+std::vector<std::vector<P2>> sample_outline(const PatternDef& pattern) {
+  const size_t n = pattern.outline.size();
+  std::vector<std::vector<P2>> out(n);
+  for (size_t k = 0; k < n; ++k) {
+    const OutlineSegment& seg = pattern.outline[k];
+    const auto fine = fine_curve(p2(seg.from), p2(pattern.outline[(k + 1) % n].from), seg.control);
+    const int pieces = std::max(1, int(std::ceil(fine_length(fine) / double(pattern.edge_length) - 1e-9)));
+    out[k] = resample(fine, pieces);
+  }
+  return out;
+}
+
+PatternMesh mesh_pattern(const PatternDef& pattern,
+                         const std::function<void(const std::string&, const std::string&)>& fail) {
+  const size_t n = pattern.outline.size();
+  if (n < 3) fail("outline", "needs at least 3 segments (got " + std::to_string(n) + ")");
+  if (!(std::isfinite(pattern.edge_length) && pattern.edge_length > 0))
+    fail("edge_length", "must be a positive number of metres");
+  if (pattern.wrap_radius && !(std::isfinite(*pattern.wrap_radius) && *pattern.wrap_radius > 0))
+    fail("wrap_radius", "must be a positive number of metres");
+  std::set<std::string> names;
+  for (size_t k = 0; k < n; ++k) {
+    const OutlineSegment& seg = pattern.outline[k];
+    const std::string f = "outline/" + std::to_string(k);
+    if (!std::isfinite(seg.from[0]) || !std::isfinite(seg.from[1])) fail(f + "/from", "must be finite");
+    if (seg.control && (!std::isfinite((*seg.control)[0]) || !std::isfinite((*seg.control)[1])))
+      fail(f + "/control", "must be finite");
+    if (!seg.name.empty() && !names.insert(seg.name).second)
+      fail(f + "/name", "duplicate segment name '" + seg.name + "'");
+    if (dist(p2(seg.from), p2(pattern.outline[(k + 1) % n].from)) < 1e-9)
+      fail(f + "/from", "the segment has no length (it starts where the next one does)");
+  }
+  // The outline as a fine polygon: it must be simple (no crossing, no touching), and its area
+  // bounds the vertex count.
+  CGAL::Polygon_2<K> polygon;
+  double perimeter = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const auto fine = fine_curve(p2(pattern.outline[k].from), p2(pattern.outline[(k + 1) % n].from),
+                                 pattern.outline[k].control);
+    perimeter += fine_length(fine);
+    for (size_t i = 0; i + 1 < fine.size(); ++i) polygon.push_back(K::Point_2(fine[i][0], fine[i][1]));
+  }
+  const double e = double(pattern.edge_length);
+  const double estimate = std::abs(CGAL::to_double(polygon.area())) / (0.43 * e * e) + perimeter / e;
+  if (!(estimate < kMaxPatternVertices))
+    fail("edge_length", "an edge length of " + std::to_string(e) + " m gives about " +
+                            std::to_string(int64_t(std::min(estimate, 1e15))) + " vertices, more than " +
+                            std::to_string(int64_t(kMaxPatternVertices)) + "; make it longer");
+  if (!polygon.is_simple()) fail("outline", "the outline crosses or touches itself");
+
+  const auto samples = sample_outline(pattern);
+  CdtPlus cdt;
+  std::vector<CdtPlus::Constraint_id> ids(n);
+  for (size_t k = 0; k < n; ++k) {
+    std::vector<K::Point_2> pts;
+    for (const P2& p : samples[k]) pts.emplace_back(p[0], p[1]);
+    const P2& end = samples[(k + 1) % n].front();
+    pts.emplace_back(end[0], end[1]);
+    ids[k] = cdt.insert_constraint(pts.begin(), pts.end());
+  }
+  // Triangles with no angle under ~20.7 degrees (B = 0.125) and no edge longer than 1.2 edge lengths.
+  CGAL::refine_Delaunay_mesh_2(cdt, Criteria(0.125, 1.2 * e));
+
+  PatternMesh m;
+  std::map<CdtPlus::Vertex_handle, uint32_t> index;
+  auto id = [&](CdtPlus::Vertex_handle v) {
+    auto [it, inserted] = index.emplace(v, uint32_t(m.points.size()));
+    if (inserted) m.points.push_back({v->point().x(), v->point().y()});
+    return it->second;
+  };
+  // Number vertices along the outline first (in order), then the interior ones as faces meet them.
+  for (size_t k = 0; k < n; ++k) {
+    std::vector<uint32_t> path;
+    for (auto it = cdt.vertices_in_constraint_begin(ids[k]); it != cdt.vertices_in_constraint_end(ids[k]); ++it)
+      path.push_back(id(*it));
+    m.segments.push_back(std::move(path));
+  }
+  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
+    if (!f->is_in_domain()) continue;
+    for (int c = 0; c < 3; ++c) m.triangles.push_back(id(f->vertex(c)));
+  }
+  if (m.triangles.empty()) fail("outline", "the outline encloses no area");
+  return m;
+}
+
+}  // namespace raycloth

@@ -1,0 +1,32 @@
+// Sewing-pattern pieces: a closed outline in metres (straight segments and sampled quadratic
+// curves) triangulated to a target edge length by CGAL's 2D Delaunay mesher.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "raycloth/scene.h"
+
+namespace raycloth {
+
+struct PatternMesh {
+  std::vector<std::array<double, 2>> points;      // the pattern's plane, metres
+  std::vector<uint32_t> triangles;                // 3 per triangle, counter-clockwise in the plane
+  // Per outline segment, its vertices in the outline's order, both ends included (the end is the
+  // next segment's first vertex).
+  std::vector<std::vector<uint32_t>> segments;
+};
+
+// The outline sampled into points: per segment, its points from `from` up to (not including) the
+// next segment's `from`, spaced at most `edge_length` apart along straight lines and curves.
+std::vector<std::vector<std::array<double, 2>>> sample_outline(const PatternDef& pattern);
+
+// Checks the outline (at least 3 segments, finite points, distinct segment names, a simple polygon
+// without crossings, a vertex count that fits) and meshes it. fail(field, reason) must throw; field
+// is relative to the pattern ("outline/2/from", "edge_length", ...).
+PatternMesh mesh_pattern(const PatternDef& pattern,
+                         const std::function<void(const std::string&, const std::string&)>& fail);
+
+}  // namespace raycloth
