@@ -240,3 +240,23 @@ TEST(Collision, SphereMovingThroughCurtainPushesIt) {
     EXPECT_GT(sim.pushed_total(), 100u) << "the sphere never reached the curtain";
   }
 }
+
+// A body of two layers 3 mm apart (clothes over skin), both rising 5 mm in one step under a cloth
+// lying 3 mm above the outer one: after the step the cloth is 2 mm inside the outer layer and 1 mm
+// outside the inner one, which is the nearer surface. It must leave through the outer layer, not
+// settle at the thickness outside the inner one (still inside the outer).
+TEST(Collision, ClothUnderAnOuterLayerLeavesThroughItNotThroughTheNearerInnerOne) {
+  SceneDef s = test::panel_scene(5, 0.1f, 0.403f);
+  s.gravity = {0, 0, 0};
+  s.time.dt = 4e-4;
+  ObstacleDef outer = test::box_obstacle({0.4f, 0.4f, 0.4f}, {0, 0.2f, 0});
+  ObstacleDef inner = test::box_obstacle({0.394f, 0.394f, 0.394f}, {0, 0.2f, 0});
+  outer.name = "outer", inner.name = "inner";
+  outer.motion = inner.motion = MotionDef{.velocity = {0, 12.5f, 0}};
+  s.obstacles = {outer, inner};
+  Simulator sim(s);
+  ASSERT_EQ(test::exact_check(sim).vertices_inside, 0u);
+  sim.step(1);
+  EXPECT_EQ(test::exact_check(sim).vertices_inside, 0u);
+  for (const Vec3& p : sim.positions()) EXPECT_GE(p.y, 0.405f + 0.5f * s.collision.thickness);
+}

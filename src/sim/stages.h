@@ -173,6 +173,14 @@ struct ObstaclePoint {
   double dist2 = 0;
   double squareness = -1;  // |cos| between the face normal and p - point
   double wa = 1, wb = 0, wc = 0;
+  // The triangle p lies furthest behind, within reach, straight under a point of the face (p is in
+  // the slab just under that face): on a body of overlapping layers (clothes over skin) the
+  // nearest surface can be an inner layer while p is under an outer one.
+  bool behind = false;
+  uint32_t behind_prim = 0;
+  DVec3 behind_point;
+  double behind_dist2 = 0;
+  double behind_wa = 1, behind_wb = 0, behind_wc = 0;
 };
 
 RC_HD ObstaclePoint nearest_obstacle_point(const StepView& s, Vec3 p, float reach) {
@@ -193,6 +201,16 @@ RC_HD ObstaclePoint nearest_obstacle_point(const StepView& s, Vec3 p, float reac
     const double nn = ddot(n, n), dd = ddot(d, d);
     const double square = nn > 0.0 && dd > 0.0 ? fabs(ddot(n, d)) / sqrt(nn * dd) : 0.0;
     const double tie = 1e-12 + 1e-9 * q.dist2;
+    // Behind the face's plane, straight under a point of the closed face (p - point along n).
+    if (ddot(n, d) < 0.0 && square > 1.0 - 1e-6 &&
+        (!best.behind || q.dist2 > best.behind_dist2 + tie ||
+         (q.dist2 >= best.behind_dist2 - tie && t < best.behind_prim))) {
+      best.behind = true;
+      best.behind_prim = t;
+      best.behind_point = point;
+      best.behind_dist2 = q.dist2;
+      best.behind_wa = q.wa, best.behind_wb = q.wb, best.behind_wc = q.wc;
+    }
     bool take = !best.found || q.dist2 < best.dist2 - tie;
     if (!take && q.dist2 <= best.dist2 + tie)
       take = square > best.squareness + 1e-12 || (square >= best.squareness - 1e-12 && t < best.prim);
@@ -216,7 +234,13 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
   if (s.model.inv_mass[i] != 0.0f && s.obstacle_bvh.num_prims > 0 && is_finite(xn)) {
     // A vertex outside at t can be at most its own move plus the obstacle's move inside at t + dt.
     const float reach = s.coll.thickness + length(xn - s.x[i]) + s.obstacle_reach;
-    const ObstaclePoint q = nearest_obstacle_point(s, xn, reach);
+    ObstaclePoint q = nearest_obstacle_point(s, xn, reach);
+    if (q.behind) {  // under a face: out in front of the outermost such face, not the nearest one
+      q.prim = q.behind_prim;
+      q.point = q.behind_point;
+      q.dist2 = q.behind_dist2;
+      q.wa = q.behind_wa, q.wb = q.behind_wb, q.wc = q.behind_wc;
+    }
     if (q.found) {
       const uint32_t* t = s.geom.obstacle_indices + 3 * q.prim;
       const Vec3 face = triangle_normal(s.geom.obstacle_vertices, s.geom.obstacle_indices, q.prim);
@@ -269,9 +293,12 @@ RC_HD uint32_t stage_wants_refresh(const StepView& s, uint32_t i) {
 // radius set (nothing nearer was found), or one that a feature farther than kBoundNear mean edges
 // set (its own panel's neighbours in a smooth region: they move with it). Balls set by a feature
 // nearer than that (a layer lying on it, a fold) wait for the next refresh.
+// A vertex an obstacle pushed does not wait either: held in its old ball it could stay inside the
+// body until the next refresh.
 RC_HD uint32_t stage_wants_refresh_now(const StepView& s, uint32_t i) {
   const float d = float_from_bits(s.bound[i]);
-  return d >= fminf(s.bound_radius[i], kBoundNear * s.mean_edge) ? stage_wants_refresh(s, i) : 0u;
+  const bool pushed = (s.flags[i] & kFlagPushed) != 0u;
+  return pushed || d >= fminf(s.bound_radius[i], kBoundNear * s.mean_edge) ? stage_wants_refresh(s, i) : 0u;
 }
 
 // Whether this step recomputes the bound (one thread): when a vertex that moves freely needs more
