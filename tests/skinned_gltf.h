@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "fixtures.h"
+
 namespace raycloth::test {
 
 struct GltfNode {
@@ -247,6 +249,28 @@ inline SkinnedGltf swinging_arm(float sweep = 180.0f) {
   }
   g.animations = {GltfAnimation{"swing", {shoulder, elbow}}};
   return g;
+}
+
+// A 0.5 m panel (6 x 6) falling from 0.3 m beside the arm of swinging_arm(135), which its transform
+// turns, scales and moves; 0.2 s (frame 0 and 7 more). The glTF goes to `dir`.
+inline SceneDef panel_beside_an_arm(const std::filesystem::path& dir, const std::string& name) {
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path gltf = dir / "arm.gltf";
+  write_skinned_gltf(gltf, swinging_arm(135.0f));
+  SceneDef s = panel_scene(6, 0.5f, 0.3f);
+  s.name = name;
+  s.time.duration = 0.2;
+  ObstacleDef arm;
+  arm.name = "arm";
+  arm.type = ObstacleType::Skinned;
+  arm.file = gltf.string();
+  arm.animation = "swing";
+  arm.loop = false;
+  arm.transform.position = {1.0f, 0.2f, -0.5f};
+  arm.transform.rotation = {0, 30, 10};
+  arm.transform.scale = {1.5f, 1.5f, 1.5f};
+  s.obstacles.push_back(arm);
+  return s;
 }
 
 // A directory of its own under the system's temporary directory, emptied first.
