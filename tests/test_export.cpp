@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "fixtures.h"
+#include "skinned_gltf.h"
 #include "io/run.h"
 #include "io/run_summary.h"
 #include "raycloth/error.h"
@@ -262,6 +263,48 @@ TEST(Export, GlbMovingObstacleKeysPutItWhereTheSimulatorHadIt) {
       EXPECT_NEAR(p.z, want.z, 1e-5) << "frame " << k << " vertex " << i;
     }
   }
+}
+
+TEST(Export, GlbSkinnedBodyIsPosedInEveryFrame) {
+  const SceneDef s = test::panel_beside_an_arm(fresh_dir("glb_skinned_gltf"), "glb_skinned");
+  const fs::path out = fresh_dir("glb_skinned");
+  const auto rec = run_with(s, out, {"glb"});
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model m;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadBinaryFromFile(&m, &err, &warn, (out / "cloth.glb").string())) << err;
+  ASSERT_EQ(m.nodes.size(), 2u);
+  const int node = 1;
+  EXPECT_EQ(m.nodes[node].name, "arm");
+  EXPECT_TRUE(m.nodes[node].translation.empty() && m.nodes[node].rotation.empty());  // world space
+  const tinygltf::Primitive& prim = m.meshes[size_t(m.nodes[node].mesh)].primitives.at(0);
+  const size_t frames = rec->times.size();
+  ASSERT_EQ(frames, 8u);
+  ASSERT_EQ(prim.targets.size(), frames);
+  // The arm's node is keyed by the cloth's weights animation: key k selects target k.
+  const tinygltf::AnimationChannel* weights = nullptr;
+  for (const auto& c : m.animations.at(0).channels)
+    if (c.target_node == node) weights = &c;
+  ASSERT_NE(weights, nullptr);
+  EXPECT_EQ(weights->target_path, "weights");
+  EXPECT_EQ(m.animations[0].samplers[size_t(weights->sampler)].output,
+            m.animations[0].samplers[size_t(m.animations[0].channels[0].sampler)].output);
+  // Frame k's vertices (base + target k) are the body posed at frame k's time.
+  const ObstacleSet set = build_obstacles(s);
+  const std::vector<float> base = accessor_floats(m, prim.attributes.at("POSITION"));
+  ASSERT_EQ(base.size(), 3 * set.world.vertices.size());
+  float moved = 0;
+  for (size_t k = 0; k < frames; ++k) {
+    std::vector<Vec3> x, v;
+    set.pose_at(rec->times[k], x, v);
+    const std::vector<float> d = accessor_floats(m, prim.targets[k].at("POSITION"));
+    for (size_t i = 0; i < x.size(); ++i) {
+      const Vec3 p = make_vec3(base[3 * i] + d[3 * i], base[3 * i + 1] + d[3 * i + 1], base[3 * i + 2] + d[3 * i + 2]);
+      ASSERT_LT(length(p - x[i]), 1e-5f) << "frame " << k << " vertex " << i;
+      moved = std::max(moved, length(p - make_vec3(base[3 * i], base[3 * i + 1], base[3 * i + 2])));
+    }
+  }
+  EXPECT_GT(moved, 0.3f);  // the arm swung
 }
 
 TEST(Export, QuaternionRotatesLikeTheTransformMatrix) {

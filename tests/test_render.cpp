@@ -14,6 +14,10 @@
 #include <string>
 
 #include "fixtures.h"
+#include "io/run.h"
+#include "render/image_frames.h"
+#include "sim/model.h"
+#include "skinned_gltf.h"
 #include "raycloth/simulator.h"
 #include "render/renderer.h"
 
@@ -243,6 +247,30 @@ std::array<int, 2> png_size(const fs::path& p) {
 }
 
 bool ffmpeg_on_path() { return std::system("command -v ffmpeg > /dev/null 2>&1") == 0; }
+
+TEST(RenderFolder, DrawsTheSkinnedBodyPosedPerFrame) {
+  // `raycloth render DIR` draws what read_output_frame returns: the per-frame obstacle OBJ.
+  const SceneDef s = test::panel_beside_an_arm(fresh("render_skinned_gltf"), "render_skinned");
+  const fs::path out = fresh("render_skinned");
+  RunOptions opt;
+  opt.out_dir = out;
+  opt.quiet = true;
+  opt.formats = std::vector<std::string>{"obj"};
+  run_scene(s, opt);
+  const OutputFolder folder = read_output_folder(out);
+  ASSERT_EQ(folder.frames.size(), 8u);
+  const ObstacleSet set = build_obstacles(s);
+  for (int k : {1, 7}) {
+    const RenderScene r = read_output_frame(folder, k);
+    std::vector<Vec3> x, v;
+    // As the run writes frames: every steps_per_frame steps, the last at the end of the run.
+    const long steps_per_frame = std::lround(1.0 / (s.time.fps * s.time.dt));
+    const long steps = std::min(k * steps_per_frame, std::lround(s.time.duration / s.time.dt));
+    set.pose_at(double(steps) * s.time.dt, x, v);
+    ASSERT_EQ(r.obstacle_vertices.size(), x.size());
+    for (size_t i = 0; i < x.size(); ++i) ASSERT_LT(length(r.obstacle_vertices[i] - x[i]), 1e-5f) << "frame " << k;
+  }
+}
 
 }  // namespace
 

@@ -124,6 +124,9 @@ void GlbSink::begin(Simulator&, const std::filesystem::path& out) { path_ = out 
 void GlbSink::frame(Simulator& sim, const FrameRecord& r) {
   times_.push_back(r.time);
   frames_.push_back(sim.positions());
+  bool any_skinned = false;
+  for (const auto& sk : sim.obstacles().skinned) any_skinned = any_skinned || sk;
+  if (any_skinned) obstacle_frames_.push_back(sim.obstacle_vertices());
 }
 
 void GlbSink::end(Simulator& sim) {
@@ -206,6 +209,41 @@ void GlbSink::end(Simulator& sim) {
       obstacles.names.empty() ? -1 : add_material(g, "obstacle", {0.60, 0.62, 0.66, 1.0}, 0.7, false);
   for (size_t o = 0; o < obstacles.names.size(); ++o) {
     const TriMesh& local = obstacles.local[o];
+    if (obstacles.skinned[o] && obstacle_frames_.size() == num_frames) {
+      // World space, posed per frame: frame 0's vertices, morph target k holds frame k.
+      const size_t first = obstacles.first_vertex[o], count = local.vertices.size();
+      auto slice = [&](size_t k) {
+        return std::vector<Vec3>(obstacle_frames_[k].begin() + long(first), obstacle_frames_[k].begin() + long(first + count));
+      };
+      const std::vector<Vec3> base = slice(0);
+      tinygltf::Primitive prim;
+      prim.mode = TINYGLTF_MODE_TRIANGLES;
+      prim.material = obstacle_material;
+      prim.attributes["POSITION"] = b.vec3(base, true);
+      prim.indices = b.indices(local.indices);
+      tinygltf::Mesh mesh;
+      mesh.name = obstacles.names[o];
+      if (animated) {
+        std::vector<Vec3> dx(count);
+        for (size_t k = 0; k < num_frames; ++k) {
+          const std::vector<Vec3> posed = slice(k);
+          for (size_t i = 0; i < count; ++i) dx[i] = posed[i] - base[i];
+          prim.targets.push_back({{"POSITION", b.vec3(dx, true)}});
+        }
+        mesh.weights.assign(num_frames, 0.0);
+        mesh.extras = tinygltf::Value(tinygltf::Value::Object{{"targetNames", tinygltf::Value(target_names)}});
+      }
+      mesh.primitives.push_back(std::move(prim));
+      g.meshes.push_back(std::move(mesh));
+      tinygltf::Node node;
+      node.name = obstacles.names[o];
+      node.mesh = int(g.meshes.size() - 1);
+      g.nodes.push_back(std::move(node));
+      const int n = int(g.nodes.size() - 1);
+      scene.nodes.push_back(n);
+      if (animated) add_channel(anim, n, "weights", time_accessor, weights_accessor);
+      continue;
+    }
     tinygltf::Primitive prim;
     prim.mode = TINYGLTF_MODE_TRIANGLES;
     prim.material = obstacle_material;
@@ -252,6 +290,7 @@ void GlbSink::end(Simulator& sim) {
       throw std::runtime_error(path_.string() + ": the glTF writer failed");
   });
   frames_.clear();
+  obstacle_frames_.clear();
   times_.clear();
 }
 

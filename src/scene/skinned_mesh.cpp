@@ -16,16 +16,7 @@ namespace {
 
 using Fail = std::function<void(const std::string&, const std::string&)>;
 
-Affine multiply(const Affine& a, const Affine& b) {
-  Affine r;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 4; ++j) {
-      float v = a.m[4 * i + 0] * b.m[j] + a.m[4 * i + 1] * b.m[4 + j] + a.m[4 * i + 2] * b.m[8 + j];
-      if (j == 3) v += a.m[4 * i + 3];
-      r.m[4 * i + j] = v;
-    }
-  return r;
-}
+Affine multiply(const Affine& a, const Affine& b) { return affine_multiply(a, b); }
 
 Affine trs_matrix(const NodeTrs& n) {
   if (n.has_matrix) return n.matrix;
@@ -102,6 +93,36 @@ void sample_channel(const AnimationChannel& c, float t, float* out) {
   }
 }
 
+// Quaternion product a * b, (x, y, z, w).
+void quat_multiply(const float* a, const float* b, float* out) {
+  const float r[4] = {a[3] * b[0] + a[0] * b[3] + a[1] * b[2] - a[2] * b[1],
+                      a[3] * b[1] - a[0] * b[2] + a[1] * b[3] + a[2] * b[0],
+                      a[3] * b[2] + a[0] * b[1] - a[1] * b[0] + a[2] * b[3],
+                      a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2]};
+  std::copy_n(r, 4, out);
+}
+
+// Makes a looping channel close: adds the fraction u in [0, 1] of the cycle's mismatch (value at
+// the cycle's start less value at its end) to v. Translations and scales add it linearly; a
+// rotation is turned by the same fraction of the shortest rotation from the end value to the start
+// value (applied on the left, so at u = 1 the end value becomes the start value exactly).
+void close_loop(const AnimationChannel& c, float start, float end, float u, float* v) {
+  float first[4], last[4];
+  sample_channel(c, start, first);
+  sample_channel(c, end, last);
+  if (c.path != AnimationChannel::Path::Rotation) {
+    for (int i = 0; i < 3; ++i) v[i] += (first[i] - last[i]) * u;
+    return;
+  }
+  const float last_inverse[4] = {-last[0], -last[1], -last[2], last[3]};
+  float d[4];
+  quat_multiply(first, last_inverse, d);  // d * last = first
+  const float identity[4] = {0, 0, 0, 1};
+  float part[4];
+  slerp(identity, d, u, part);  // slerp takes the shorter way (flips d when d.w < 0)
+  quat_multiply(part, v, v);
+}
+
 // Reads an accessor as floats (normalized integers scaled to [0, 1]), `width` per element.
 std::vector<float> read_floats(const tinygltf::Model& m, int index, int width, const std::string& what,
                                const Fail& fail) {
@@ -161,13 +182,16 @@ NodeTrs node_trs(const tinygltf::Node& n) {
 
 }  // namespace
 
-std::vector<NodeTrs> SkinnedMesh::sample(float time, float blend) const {
+std::vector<NodeTrs> SkinnedMesh::sample(float time, float blend, bool loop) const {
   std::vector<NodeTrs> local = rest;
+  const float span = end - start;
+  const float cycle = loop && span > 0 ? std::clamp((time - start) / span, 0.0f, 1.0f) : 0.0f;
   for (const AnimationChannel& c : channels) {
     NodeTrs& n = local[size_t(c.node)];
     const NodeTrs& r = rest[size_t(c.node)];
     float v[4];
     sample_channel(c, time, v);
+    if (cycle > 0) close_loop(c, start, end, cycle, v);
     switch (c.path) {
       case AnimationChannel::Path::Translation:
         for (int i = 0; i < 3; ++i) n.t[i] = r.t[i] + (v[i] - r.t[i]) * blend;
@@ -255,22 +279,35 @@ SkinnedMesh load_skinned_mesh(const std::string& path, const std::string& animat
         if (it == prim.attributes.end()) fail("file", what + " has no " + name);
         return it->second;
       };
-      if (prim.attributes.count("JOINTS_1")) fail("file", what + ": JOINTS_1 (more than 4 joints per vertex) is not supported");
       const std::vector<float> pos = read_floats(m, attribute("POSITION"), 3, what + " POSITION", fail);
       const std::vector<float> jnt = read_floats(m, attribute("JOINTS_0"), 4, what + " JOINTS_0", fail);
       const std::vector<float> wgt = read_floats(m, attribute("WEIGHTS_0"), 4, what + " WEIGHTS_0", fail);
       const size_t nv = pos.size() / 3;
       if (jnt.size() != 4 * nv || wgt.size() != 4 * nv) fail("file", what + ": JOINTS_0 or WEIGHTS_0 count differs from POSITION");
+      // A second set of four influences is accepted only when it is unused (all its weights 0), as
+      // some exporters write it so.
+      std::vector<float> wgt1;
+      if (prim.attributes.count("JOINTS_1") || prim.attributes.count("WEIGHTS_1")) {
+        wgt1 = read_floats(m, attribute("WEIGHTS_1"), 4, what + " WEIGHTS_1", fail);
+        if (wgt1.size() != 4 * nv) fail("file", what + ": WEIGHTS_1 count differs from POSITION");
+      }
       const uint32_t base = uint32_t(s.vertices.size());
       for (size_t i = 0; i < nv; ++i) {
         SkinnedVertex v;
         v.rest = make_vec3(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]);
         float sum = 0;
+        if (!wgt1.empty())
+          for (int k = 0; k < 4; ++k)
+            if (wgt1[4 * i + size_t(k)] != 0.0f)
+              fail("file", fmt::format("{}: vertex {} has weights in WEIGHTS_1: more than 4 joints per vertex, "
+                                       "at most 4 are supported (JOINTS_0, WEIGHTS_0)",
+                                       what, i));
         for (int k = 0; k < 4; ++k) {
           const float j = jnt[4 * i + size_t(k)], w = wgt[4 * i + size_t(k)];
           if (!(w >= 0) || !std::isfinite(w)) fail("file", fmt::format("{}: vertex {} has a weight that is not a number >= 0", what, i));
           if (w > 0 && (j < 0 || size_t(j) >= s.joints.size()))
-            fail("file", fmt::format("{}: vertex {} uses joint {} of {}", what, i, j, s.joints.size()));
+            fail("file", fmt::format("{}: vertex {} uses joint {} but the skin has {} joints (0 to {})", what, i, j,
+                                     s.joints.size(), s.joints.size() - 1));
           v.joint[k] = uint16_t(w > 0 ? j : 0);
           v.weight[k] = w;
           sum += w;

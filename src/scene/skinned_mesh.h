@@ -22,6 +22,18 @@ RC_HD Vec3 affine_apply(const Affine& a, Vec3 p) {
                    a.m[8] * p.x + a.m[9] * p.y + a.m[10] * p.z + a.m[11]);
 }
 
+// a * b: b's map first, then a's.
+RC_HD Affine affine_multiply(const Affine& a, const Affine& b) {
+  Affine r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 4; ++j) {
+      float v = a.m[4 * i + 0] * b.m[j] + a.m[4 * i + 1] * b.m[4 + j] + a.m[4 * i + 2] * b.m[8 + j];
+      if (j == 3) v += a.m[4 * i + 3];
+      r.m[4 * i + j] = v;
+    }
+  return r;
+}
+
 // Linear blend skinning of one vertex: sum of weight[k] * joint_matrix[joint[k]] * rest.
 RC_HD Vec3 skin_vertex(const Affine* joint_matrices, const uint16_t joint[4], const float weight[4], Vec3 rest) {
   Vec3 out = make_vec3(0, 0, 0);
@@ -35,6 +47,15 @@ struct SkinnedVertex {
   uint16_t joint[4];   // indices into the skin's joints
   float weight[4];
 };
+
+// A skinned obstacle vertex in world space and its surface velocity, on the host (ObstacleSet::pose_at)
+// and on the device (the CUDA backend) alike. `pose`: the joint matrices at t with the obstacle's
+// transform applied; `rate`: their rate of change per second. Skinning is linear in the matrices, so
+// skinning with `rate` gives the vertex's velocity.
+RC_HD void skin_obstacle_vertex(const Affine* pose, const Affine* rate, const SkinnedVertex& v, Vec3& x, Vec3& vel) {
+  x = skin_vertex(pose, v.joint, v.weight, v.rest);
+  vel = skin_vertex(rate, v.joint, v.weight, v.rest);
+}
 
 // One animation channel: a node's translation, rotation (x, y, z, w) or scale over time.
 struct AnimationChannel {
@@ -66,8 +87,11 @@ struct SkinnedMesh {
   float start = 0, end = 0;       // the animation's key time range (seconds)
 
   // The local transform of every node at animation time `time` (clamped to the key range), blended
-  // from the rest pose by `blend` in [0, 1] (0: rest pose, 1: the animation).
-  std::vector<NodeTrs> sample(float time, float blend) const;
+  // from the rest pose by `blend` in [0, 1] (0: rest pose, 1: the animation). With `loop`, each
+  // channel's mismatch between its value at `end` and at `start` is spread linearly over the cycle
+  // (a clip whose last key differs from its first then plays as a closed loop: the value at `end`
+  // equals the value at `start`, so wrapping around does not jump).
+  std::vector<NodeTrs> sample(float time, float blend, bool loop = false) const;
   // Joint matrices (global joint transform times inverse bind matrix) for the given node transforms.
   std::vector<Affine> joint_matrices(const std::vector<NodeTrs>& local) const;
   // Skinned positions for the given joint matrices.

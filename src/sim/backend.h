@@ -63,5 +63,9 @@ std::unique_ptr<Backend> make_cpu_backend(const BackendInput& in, std::unique_pt
 std::unique_ptr<Backend> make_cuda_backend(const BackendInput& in);
 // True when the CUDA backend is built and a GPU is usable; otherwise `why` says what is missing.
 bool cuda_usable(std::string* why);
+// The obstacles at simulated time t with the skinned bodies posed on the device, by the CUDA
+// backend's own skinning (the rest as pose_at has them), for tests against pose_at. Throws
+// SimulationError where the backend cannot run.
+void cuda_pose_obstacles(const ObstacleSet& obstacles, double t, std::vector<Vec3>& x, std::vector<Vec3>& v);
 
 }  // namespace raycloth

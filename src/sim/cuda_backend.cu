@@ -75,11 +75,123 @@ __global__ void k_pose_obstacles(PoseView p) {
   pose_vertex(p.table[p.pose_index[i]], p.local[i], p.x[w], p.v[w]);
 }
 
+// Skinned obstacle vertices: which world vertex, where its obstacle's joints start in a step's
+// joint tables, and the joint matrices (pose) and their rates for one step.
+struct SkinView {
+  uint32_t num_vertices = 0;
+  const SkinnedVertex* vertices = nullptr;
+  const uint32_t* world_index = nullptr;
+  const uint32_t* joint_base = nullptr;
+  const Affine* pose = nullptr;
+  const Affine* rate = nullptr;
+  Vec3* x = nullptr;
+  Vec3* v = nullptr;
+};
+
+__global__ void k_skin_obstacles(SkinView s) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= s.num_vertices) return;
+  const uint32_t w = s.world_index[i], b = s.joint_base[i];
+  skin_obstacle_vertex(s.pose + b, s.rate + b, s.vertices[i], s.x[w], s.v[w]);
+}
+
+// The skinned obstacles of an ObstacleSet on the device: their vertices, uploaded once, and for a
+// run of step times the joint matrices and rates the host computes, uploaded at once; the kernel
+// poses the vertices of one of those times into the obstacle arrays.
+class DeviceSkinning {
+ public:
+  explicit DeviceSkinning(const ObstacleSet& o) : o_(o) {
+    std::vector<SkinnedVertex> vertices;
+    std::vector<uint32_t> world_index, joint_base;
+    for (size_t oi = 0; oi < o.skinned.size(); ++oi) {
+      if (!o.skinned[oi]) continue;
+      const SkinnedMesh& m = *o.skinned[oi];
+      for (size_t k = 0; k < m.vertices.size(); ++k) {
+        vertices.push_back(m.vertices[k]);
+        world_index.push_back(o.first_vertex[oi] + uint32_t(k));
+        joint_base.push_back(num_joints_);
+      }
+      const std::vector<JointBall> b = joint_balls(m);
+      balls_.insert(balls_.end(), b.begin(), b.end());
+      obstacles_.push_back(oi);
+      num_joints_ += uint32_t(m.joints.size());
+    }
+    num_vertices_ = uint32_t(vertices.size());
+    vertices_ = DeviceBuffer<SkinnedVertex>(vertices);
+    world_index_ = DeviceBuffer<uint32_t>(world_index);
+    joint_base_ = DeviceBuffer<uint32_t>(joint_base);
+  }
+
+  bool empty() const { return obstacles_.empty(); }
+
+  // Joint tables for `times` (each: the pose, then the rate, num_joints_ each), and for each time
+  // the bound on how far the bodies move from the time before (`before` for the first).
+  void upload(const std::vector<double>& times, double before, cudaStream_t stream) {
+    if (empty()) return;
+    std::vector<Affine> table(times.size() * 2 * num_joints_);
+    reach_.assign(times.size(), 0.0f);
+    std::vector<Affine> previous = poses_at(before), pose, rate;
+    for (size_t k = 0; k < times.size(); ++k) {
+      Affine* out = table.data() + k * 2 * num_joints_;
+      for (size_t m = 0, base = 0; m < obstacles_.size(); ++m) {
+        o_.skinned_joints(obstacles_[m], times[k], pose, rate);
+        std::copy(pose.begin(), pose.end(), out + base);
+        std::copy(rate.begin(), rate.end(), out + num_joints_ + base);
+        base += pose.size();
+      }
+      const std::vector<Affine> now(out, out + num_joints_);
+      reach_[k] = skinned_reach(balls_, previous.data(), now.data());
+      previous = now;
+    }
+    table_.resize(std::max(table_.size(), table.size()));
+    CUDA_CHECK(cudaMemcpyAsync(table_.data(), table.data(), table.size() * sizeof(Affine), cudaMemcpyHostToDevice, stream));
+    CUDA_CHECK(cudaStreamSynchronize(stream));  // `table` is pageable and goes out of scope
+  }
+
+  float reach(size_t k) const { return empty() ? 0.0f : reach_[k]; }
+
+  // Poses the vertices for time k of the last upload into the obstacle arrays x and v.
+  void pose(size_t k, Vec3* x, Vec3* v, cudaStream_t stream) const {
+    if (empty()) return;
+    SkinView s;
+    s.num_vertices = num_vertices_;
+    s.vertices = vertices_.data();
+    s.world_index = world_index_.data();
+    s.joint_base = joint_base_.data();
+    s.pose = table_.data() + k * 2 * num_joints_;
+    s.rate = s.pose + num_joints_;
+    s.x = x;
+    s.v = v;
+    k_skin_obstacles<<<grid_for(num_vertices_), kBlock, 0, stream>>>(s);
+    CUDA_CHECK_LAUNCH();
+  }
+
+ private:
+  std::vector<Affine> poses_at(double t) const {
+    std::vector<Affine> all, pose, rate;
+    for (size_t oi : obstacles_) {
+      o_.skinned_joints(oi, t, pose, rate);
+      all.insert(all.end(), pose.begin(), pose.end());
+    }
+    return all;
+  }
+
+  const ObstacleSet& o_;
+  std::vector<size_t> obstacles_;  // the skinned ones
+  std::vector<JointBall> balls_;   // per joint, all skinned obstacles' joints in a row
+  uint32_t num_joints_ = 0, num_vertices_ = 0;
+  std::vector<float> reach_;
+  DeviceBuffer<SkinnedVertex> vertices_;
+  DeviceBuffer<uint32_t> world_index_, joint_base_;
+  DeviceBuffer<Affine> table_;
+};
+
 __global__ void k_probe() {}
 
 class CudaBackend final : public Backend {
  public:
-  explicit CudaBackend(const BackendInput& in) : scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles) {
+  explicit CudaBackend(const BackendInput& in)
+      : scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), skinning_(*in.obstacles) {
     // A blocking stream: it waits for the setup copies (cudaMemcpy on the legacy default stream).
     CUDA_CHECK(cudaStreamCreate(&stream_));
     CUDA_CHECK(cudaMallocHost(reinterpret_cast<void**>(&counters_host_), sizeof(StepCounters)));
@@ -136,6 +248,7 @@ class CudaBackend final : public Backend {
   // ---- The executor of sim/step.h ----
 
   StepView begin(uint64_t step) {
+    step_reach_ = obstacle_reach_;
     if (obstacles_.any_moving) {
       PoseView p;
       p.num_vertices = uint32_t(moving_local_.size());
@@ -143,12 +256,23 @@ class CudaBackend final : public Backend {
       p.world_index = moving_world_index_.data();
       p.local = moving_local_.data();
       p.pose_index = moving_pose_index_.data();
-      p.table = pose_table_.data() + (step - call_first_) * moving_.size();
+      p.table = moving_.empty() ? nullptr : pose_table_.data() + (step - call_first_) * moving_.size();
       p.x = obstacle_x_.data();
       p.v = obstacle_v_.data();
-      k_pose_obstacles<<<grid_for(p.num_vertices), kBlock, 0, stream_>>>(p);
-      CUDA_CHECK_LAUNCH();
-      obstacle_tree_.refit(obstacle_x_.data(), obstacle_indices_.data(), stream_);
+      if (p.num_vertices > 0) {
+        k_pose_obstacles<<<grid_for(p.num_vertices), kBlock, 0, stream_>>>(p);
+        CUDA_CHECK_LAUNCH();
+      }
+      const size_t k = size_t(step - call_first_);
+      skinning_.pose(k, obstacle_x_.data(), obstacle_v_.data(), stream_);
+      step_reach_ = std::max(step_reach_, skinning_.reach(k));
+      // A deforming body degrades the refit tree: rebuilt every kRebuildEvery steps, like the cloth's.
+      if (!skinning_.empty() && ++obstacle_refits_since_build_ >= kRebuildEvery) {
+        obstacle_tree_.build(obstacle_x_.data(), obstacle_indices_.data(), stream_);
+        obstacle_refits_since_build_ = 0;
+      } else {
+        obstacle_tree_.refit(obstacle_x_.data(), obstacle_indices_.data(), stream_);
+      }
     }
     refit_cloth_tree();
     k_reset_counters<<<1, 1, 0, stream_>>>(counters_.data());
@@ -287,6 +411,10 @@ class CudaBackend final : public Backend {
 
   // The poses at the end of each of this call's steps (t + dt), uploaded once before its steps.
   void upload_poses(int n, uint64_t first_step) {
+    std::vector<double> times(static_cast<size_t>(n));
+    for (int k = 0; k < n; ++k) times[size_t(k)] = double(first_step + uint64_t(k) + 1) * scene_.time.dt;
+    skinning_.upload(times, double(first_step) * scene_.time.dt, stream_);
+    if (moving_.empty()) return;
     std::vector<RigidPose> table(size_t(n) * moving_.size());
     for (int k = 0; k < n; ++k)
       for (size_t m = 0; m < moving_.size(); ++m)
@@ -348,7 +476,7 @@ class CudaBackend final : public Backend {
     s.flags = flags_.data();
     s.obstacle_bvh = obstacle_tree_.view();
     s.cloth_bvh = cloth_.view();
-    s.obstacle_reach = obstacle_reach_;
+    s.obstacle_reach = step_reach_;
     s.counters = counters_.data();
     return s;
   }
@@ -373,7 +501,9 @@ class CudaBackend final : public Backend {
   int cur_ = 0;                            // x_[cur_] holds the state at the current time
   int refits_since_build_ = 0;
   uint64_t call_first_ = 0;
-  float obstacle_reach_ = 0;
+  float obstacle_reach_ = 0;  // rigid motions: the fastest point's move in a step
+  float step_reach_ = 0;      // this step's: the rigid reach or the skinned bodies' bound
+  int obstacle_refits_since_build_ = 0;
 
   DeviceBuffer<float> inv_mass_, damping_, adj_rest_, adj_k_, adj_kd_;
   DeviceBuffer<uint32_t> adj_offset_, adj_other_, alias_, cloth_indices_, tri_alias_, edges_;
@@ -398,6 +528,7 @@ class CudaBackend final : public Backend {
   DeviceBuffer<Vec3> moving_local_;
   DeviceBuffer<RigidPose> pose_table_;
   DeviceBvh obstacle_tree_, cloth_;
+  DeviceSkinning skinning_;
 };
 
 }  // namespace
@@ -432,6 +563,26 @@ bool cuda_usable(std::string* why) {
   }
   if (why) why->clear();
   return true;
+}
+
+void cuda_pose_obstacles(const ObstacleSet& o, double t, std::vector<Vec3>& x, std::vector<Vec3>& v) {
+  std::string why;
+  if (!cuda_usable(&why)) throw SimulationError("device 'cuda' cannot run: " + why);
+  // Everything but the skinned bodies as pose_at has it; those the device overwrites.
+  std::vector<Vec3> hx, hv;
+  o.pose_at(t, hx, hv);
+  for (size_t oi = 0; oi < o.skinned.size(); ++oi)
+    if (o.skinned[oi])
+      for (size_t k = 0; k < o.local[oi].vertices.size(); ++k)
+        hx[o.first_vertex[oi] + k] = hv[o.first_vertex[oi] + k] = make_vec3(NAN, NAN, NAN);
+  DeviceBuffer<Vec3> dx(hx), dv(hv);
+  DeviceSkinning skinning(o);
+  skinning.upload({t}, t, nullptr);
+  skinning.pose(0, dx.data(), dv.data(), nullptr);
+  x.resize(hx.size());
+  v.resize(hv.size());
+  CUDA_CHECK(cudaMemcpy(x.data(), dx.data(), dx.bytes(), cudaMemcpyDeviceToHost));
+  CUDA_CHECK(cudaMemcpy(v.data(), dv.data(), dv.bytes(), cudaMemcpyDeviceToHost));
 }
 
 std::unique_ptr<Backend> make_cuda_backend(const BackendInput& in) {

@@ -9,6 +9,12 @@ bool cuda_usable(std::string* why) {
   return false;
 }
 
+void cuda_pose_obstacles(const ObstacleSet&, double, std::vector<Vec3>&, std::vector<Vec3>&) {
+  std::string why;
+  cuda_usable(&why);
+  throw SimulationError("device 'cuda' cannot run: " + why);
+}
+
 std::unique_ptr<Backend> make_cuda_backend(const BackendInput&) {
   std::string why;
   cuda_usable(&why);

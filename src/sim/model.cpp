@@ -762,28 +762,43 @@ std::pair<float, float> animation_time(const ObstacleDef& od, const SkinnedMesh&
 
 }  // namespace
 
-void ObstacleSet::pose_skinned(size_t oi, double t, Vec3* vertices) const {
+void ObstacleSet::skinned_joints(size_t oi, double t, std::vector<Affine>& pose, std::vector<Affine>& rate) const {
   const SkinnedMesh& m = *skinned[oi];
-  const auto [a, blend] = animation_time(defs[oi], m, t);
-  std::vector<Vec3> posed;
-  m.skin(m.joint_matrices(m.sample(a, blend)), posed);
   const Transform xf = make_transform(defs[oi].transform);
-  for (size_t i = 0; i < posed.size(); ++i) vertices[i] = xf.apply(posed[i]);
+  Affine world;  // the obstacle's transform: rotation times scale, then translation
+  const Vec3 rows[3] = {xf.rotation.r0, xf.rotation.r1, xf.rotation.r2};
+  const float scale[3] = {xf.scale.x, xf.scale.y, xf.scale.z}, move[3] = {xf.translation.x, xf.translation.y, xf.translation.z};
+  for (int i = 0; i < 3; ++i) {
+    const float r[3] = {rows[i].x, rows[i].y, rows[i].z};
+    for (int j = 0; j < 3; ++j) world.m[4 * i + j] = r[j] * scale[j];
+    world.m[4 * i + 3] = move[i];
+  }
+  auto joints_at = [&](double time) {
+    const auto [a, blend] = animation_time(defs[oi], m, time);
+    std::vector<Affine> j = m.joint_matrices(m.sample(a, blend, defs[oi].loop));
+    for (Affine& x : j) x = affine_multiply(world, x);
+    return j;
+  };
+  pose = joints_at(t);
+  const double h = 5e-4, t0 = std::max(0.0, t - h), t1 = t + h;
+  const std::vector<Affine> a = joints_at(t0), b = joints_at(t1);
+  const float inv = float(1.0 / (t1 - t0));
+  rate.resize(pose.size());
+  for (size_t j = 0; j < pose.size(); ++j)
+    for (int k = 0; k < 12; ++k) rate[j].m[k] = (b[j].m[k] - a[j].m[k]) * inv;
 }
 
 void ObstacleSet::pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec3>& velocities) const {
   vertices = world.vertices;
   velocities.assign(vertices.size(), make_vec3(0, 0, 0));
+  std::vector<Affine> pose, rate;
   for (size_t oi = 0; oi < defs.size(); ++oi) {
     if (skinned[oi]) {
-      // Positions at t; surface velocities from the pose 0.5 ms either side (one-sided at t = 0).
-      const size_t n = local[oi].vertices.size(), first = first_vertex[oi];
-      const double h = 5e-4, t0 = std::max(0.0, t - h), t1 = t + h;
-      std::vector<Vec3> a(n), b(n);
-      pose_skinned(oi, t, vertices.data() + first);
-      pose_skinned(oi, t0, a.data());
-      pose_skinned(oi, t1, b.data());
-      for (size_t i = 0; i < n; ++i) velocities[first + i] = (b[i] - a[i]) * float(1.0 / (t1 - t0));
+      skinned_joints(oi, t, pose, rate);
+      const std::vector<SkinnedVertex>& sv = skinned[oi]->vertices;
+      const size_t first = first_vertex[oi];
+      for (size_t i = 0; i < sv.size(); ++i)
+        skin_obstacle_vertex(pose.data(), rate.data(), sv[i], vertices[first + i], velocities[first + i]);
       continue;
     }
     if (!defs[oi].motion) continue;

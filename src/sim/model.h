@@ -118,8 +118,10 @@ struct ObstacleSet {
   bool any_moving = false;
   // World-space vertices and per-vertex velocities at simulated time t.
   void pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec3>& velocities) const;
-  // A skinned obstacle's world-space vertices at simulated time t (local[oi].vertices.size() of them).
-  void pose_skinned(size_t oi, double t, Vec3* vertices) const;
+  // A skinned obstacle's joint matrices at simulated time t with its transform applied (`pose`), and
+  // their rate of change per second (`rate`: from the poses 0.5 ms either side, one-sided at t = 0).
+  // skin_obstacle_vertex turns them into a vertex's world position and surface velocity.
+  void skinned_joints(size_t oi, double t, std::vector<Affine>& pose, std::vector<Affine>& rate) const;
 };
 
 // Fills the per-vertex CSR adjacency and the spring counts from model.springs.

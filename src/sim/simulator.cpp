@@ -65,23 +65,13 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
   }
 
   const BackendInput in{&scene_, model_.get(), obstacles_.get()};
-  // Skinned bodies are posed on the host and uploaded by the CPU backend only (for now).
-  std::string skinned_name;
-  for (size_t oi = 0; oi < obstacles_->skinned.size(); ++oi)
-    if (obstacles_->skinned[oi] && skinned_name.empty()) skinned_name = obstacles_->names[oi];
-  const std::string no_cuda_skinning =
-      "skinned obstacle '" + skinned_name + "': skinned bodies run on the CPU backend only for now";
   if (options.device == "cpu") {
     backend_ = make_cpu_backend(in);
   } else if (options.device == "cuda") {
-    if (!skinned_name.empty()) throw SimulationError("device 'cuda' cannot run: " + no_cuda_skinning);
     backend_ = make_cuda_backend(in);
   } else if (options.device == "auto") {
     std::string why;
-    if (!skinned_name.empty()) {
-      spdlog::warn("device auto: using the CPU ({})", no_cuda_skinning);
-      backend_ = make_cpu_backend(in);
-    } else if (cuda_usable(&why)) {
+    if (cuda_usable(&why)) {
       backend_ = make_cuda_backend(in);
     } else {
       spdlog::warn("device auto: using the CPU ({})", why);
