@@ -95,6 +95,7 @@ struct StepView {
 inline constexpr uint32_t kFlagPushed = 1u;   // an obstacle pushed the vertex this step
 inline constexpr uint32_t kFlagClamped = 2u;  // the bound shortened its move
 inline constexpr uint32_t kFlagBlowup = 4u;   // integration gave a non-finite or runaway velocity
+inline constexpr uint32_t kFlagInside = 8u;   // it was inside an obstacle at t + dt before the push
 
 
 RC_HD bool is_representative(const ModelView& m, uint32_t i) { return m.alias[i] == i; }
@@ -173,15 +174,14 @@ struct ObstaclePoint {
   double dist2 = 0;
   double squareness = -1;  // |cos| between the face normal and p - point
   double wa = 1, wb = 0, wc = 0;
-  // The triangle p lies furthest behind, within reach, straight under a point of the face (p is in
-  // the slab just under that face): on a body of overlapping layers (clothes over skin) the
-  // nearest surface can be an inner layer while p is under an outer one.
-  bool behind = false;
-  uint32_t behind_prim = 0;
-  DVec3 behind_point;
-  double behind_dist2 = 0;
-  double behind_wa = 1, behind_wb = 0, behind_wc = 0;
+  // Faces p lies straight under (behind the face's plane, p - point along its normal) within
+  // reach: on a body of overlapping layers (clothes over skin) the nearest surface can be an inner
+  // layer while p is also under an outer one. Up to kUnderFaces of them, in the order found.
+  uint32_t num_under = 0;
+  uint32_t under[4] = {0, 0, 0, 0};
 };
+
+inline constexpr uint32_t kUnderFaces = 4;
 
 RC_HD ObstaclePoint nearest_obstacle_point(const StepView& s, Vec3 p, float reach) {
   ObstaclePoint best;
@@ -201,16 +201,7 @@ RC_HD ObstaclePoint nearest_obstacle_point(const StepView& s, Vec3 p, float reac
     const double nn = ddot(n, n), dd = ddot(d, d);
     const double square = nn > 0.0 && dd > 0.0 ? fabs(ddot(n, d)) / sqrt(nn * dd) : 0.0;
     const double tie = 1e-12 + 1e-9 * q.dist2;
-    // Behind the face's plane, straight under a point of the closed face (p - point along n).
-    if (ddot(n, d) < 0.0 && square > 1.0 - 1e-6 &&
-        (!best.behind || q.dist2 > best.behind_dist2 + tie ||
-         (q.dist2 >= best.behind_dist2 - tie && t < best.behind_prim))) {
-      best.behind = true;
-      best.behind_prim = t;
-      best.behind_point = point;
-      best.behind_dist2 = q.dist2;
-      best.behind_wa = q.wa, best.behind_wb = q.wb, best.behind_wc = q.wc;
-    }
+    if (ddot(n, d) < 0.0 && square > 1.0 - 1e-6 && best.num_under < kUnderFaces) best.under[best.num_under++] = t;
     bool take = !best.found || q.dist2 < best.dist2 - tie;
     if (!take && q.dist2 <= best.dist2 + tie)
       take = square > best.squareness + 1e-12 || (square >= best.squareness - 1e-12 && t < best.prim);
@@ -235,14 +226,8 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
     // A vertex outside at t can be at most its own move plus the obstacle's move inside at t + dt.
     const float reach = s.coll.thickness + length(xn - s.x[i]) + s.obstacle_reach;
     ObstaclePoint q = nearest_obstacle_point(s, xn, reach);
-    if (q.behind) {  // under a face: out in front of the outermost such face, not the nearest one
-      q.prim = q.behind_prim;
-      q.point = q.behind_point;
-      q.dist2 = q.behind_dist2;
-      q.wa = q.behind_wa, q.wb = q.behind_wb, q.wc = q.behind_wc;
-    }
     if (q.found) {
-      const uint32_t* t = s.geom.obstacle_indices + 3 * q.prim;
+      const uint32_t* t = s.geom.obstacle_indices + 3 * q.prim;  // the face that set the push
       const Vec3 face = triangle_normal(s.geom.obstacle_vertices, s.geom.obstacle_indices, q.prim);
       const DVec3 d = dvec(xn) - q.point;
       const double dist = sqrt(q.dist2);
@@ -252,9 +237,36 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
         const double k = (inside ? -1.0 : 1.0) / dist;
         out = make_vec3(float(d.x * k), float(d.y * k), float(d.z * k));
       }
-      if (inside || dist < double(s.coll.thickness)) {
-        const Vec3 surface = make_vec3(float(q.point.x), float(q.point.y), float(q.point.z));
-        xn = surface + out * s.coll.thickness;
+      const bool near = inside || dist < double(s.coll.thickness);
+      if (near || q.num_under > 0) {
+        bool pushed = near, under = false;
+        if (near) {
+          const Vec3 surface = make_vec3(float(q.point.x), float(q.point.y), float(q.point.z));
+          xn = surface + out * s.coll.thickness;
+        }
+        // Pushed out of the nearest surface, the vertex may still be straight under another face it
+        // was under (an outer layer): then out in front of that one too, and so on.
+        for (uint32_t pass = 0; pass < q.num_under; ++pass) {
+          bool moved = false;
+          for (uint32_t k = 0; k < q.num_under && !moved; ++k) {
+            const uint32_t f = q.under[k];
+            const uint32_t* ft = s.geom.obstacle_indices + 3 * f;
+            const Vec3* ov = s.geom.obstacle_vertices;
+            const DVec3 a = dvec(ov[ft[0]]), b = dvec(ov[ft[1]]), c = dvec(ov[ft[2]]);
+            const TrianglePoint fp = closest_on_triangle(dvec(xn), a, b, c);
+            const Vec3 fn = triangle_normal(ov, s.geom.obstacle_indices, f);
+            const DVec3 fpoint = a * fp.wa + b * fp.wb + c * fp.wc, fd = dvec(xn) - fpoint;
+            const double depth = -ddot(fd, dvec(fn));
+            if (!(depth > 0.0) || depth * depth < 0.999999 * ddot(fd, fd)) continue;  // in front, or not under it
+            xn = make_vec3(float(fpoint.x), float(fpoint.y), float(fpoint.z)) + fn * s.coll.thickness;
+            out = fn;
+            q.prim = f, q.wa = fp.wa, q.wb = fp.wb, q.wc = fp.wc;
+            t = s.geom.obstacle_indices + 3 * f;
+            moved = pushed = under = true;
+          }
+          if (!moved) break;
+        }
+        if (!pushed) return;
         Vec3 u = make_vec3(0, 0, 0);
         if (s.geom.obstacle_velocities) {
           const Vec3* ovel = s.geom.obstacle_velocities;
@@ -262,7 +274,7 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
         }
         s.v_next[i] = contact_velocity(s.v_next[i], out, u, s.coll.friction);
         s.contact_normal[i] = out;
-        s.flags[i] |= kFlagPushed;
+        s.flags[i] |= inside || under ? (kFlagPushed | kFlagInside) : kFlagPushed;
         if (s.contacts[i].w < 0.0f) {
           s.contacts[i].normal = out;
           s.contacts[i].w = float(dist);
@@ -293,12 +305,13 @@ RC_HD uint32_t stage_wants_refresh(const StepView& s, uint32_t i) {
 // radius set (nothing nearer was found), or one that a feature farther than kBoundNear mean edges
 // set (its own panel's neighbours in a smooth region: they move with it). Balls set by a feature
 // nearer than that (a layer lying on it, a fold) wait for the next refresh.
-// A vertex an obstacle pushed does not wait either: held in its old ball it could stay inside the
-// body until the next refresh.
+// A vertex an obstacle pushed out from inside does not wait either: held in its old ball it could
+// stay inside the body until the next refresh. (Vertices merely kept at the thickness, cloth
+// resting on a body, wait as before.)
 RC_HD uint32_t stage_wants_refresh_now(const StepView& s, uint32_t i) {
   const float d = float_from_bits(s.bound[i]);
-  const bool pushed = (s.flags[i] & kFlagPushed) != 0u;
-  return pushed || d >= fminf(s.bound_radius[i], kBoundNear * s.mean_edge) ? stage_wants_refresh(s, i) : 0u;
+  const bool was_inside = (s.flags[i] & kFlagInside) != 0u;
+  return was_inside || d >= fminf(s.bound_radius[i], kBoundNear * s.mean_edge) ? stage_wants_refresh(s, i) : 0u;
 }
 
 // Whether this step recomputes the bound (one thread): when a vertex that moves freely needs more
