@@ -95,7 +95,7 @@ struct StepView {
 inline constexpr uint32_t kFlagPushed = 1u;   // an obstacle pushed the vertex this step
 inline constexpr uint32_t kFlagClamped = 2u;  // the bound shortened its move
 inline constexpr uint32_t kFlagBlowup = 4u;   // integration gave a non-finite or runaway velocity
-inline constexpr uint32_t kFlagInside = 8u;   // it was inside an obstacle at t + dt before the push
+inline constexpr uint32_t kFlagInside = 8u;   // inside an obstacle at t + dt, or pushed hard by one
 
 
 RC_HD bool is_representative(const ModelView& m, uint32_t i) { return m.alias[i] == i; }
@@ -239,6 +239,7 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
       }
       const bool near = inside || dist < double(s.coll.thickness);
       if (near || q.num_under > 0) {
+        const Vec3 before = xn;
         bool pushed = near, under = false;
         if (near) {
           const Vec3 surface = make_vec3(float(q.point.x), float(q.point.y), float(q.point.z));
@@ -274,7 +275,10 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
         }
         s.v_next[i] = contact_velocity(s.v_next[i], out, u, s.coll.friction);
         s.contact_normal[i] = out;
-        s.flags[i] |= inside || under ? (kFlagPushed | kFlagInside) : kFlagPushed;
+        // Inside, or pushed more than a tenth of the thickness by a surface moving into the cloth
+        // (not cloth falling onto or resting on a body): the bound is refreshed at once if it holds it.
+        const bool hard = inside || under || (dot(u, out) > 0.0f && length(xn - before) > 0.1f * s.coll.thickness);
+        s.flags[i] |= hard ? (kFlagPushed | kFlagInside) : kFlagPushed;
         if (s.contacts[i].w < 0.0f) {
           s.contacts[i].normal = out;
           s.contacts[i].w = float(dist);
@@ -305,9 +309,9 @@ RC_HD uint32_t stage_wants_refresh(const StepView& s, uint32_t i) {
 // radius set (nothing nearer was found), or one that a feature farther than kBoundNear mean edges
 // set (its own panel's neighbours in a smooth region: they move with it). Balls set by a feature
 // nearer than that (a layer lying on it, a fold) wait for the next refresh.
-// A vertex an obstacle pushed out from inside does not wait either: held in its old ball it could
-// stay inside the body until the next refresh. (Vertices merely kept at the thickness, cloth
-// resting on a body, wait as before.)
+// A vertex an obstacle pushed out from inside, or pushed hard, does not wait either: held in its
+// old ball it could end inside the body before the next refresh. (Vertices merely kept at the
+// thickness, cloth resting on a body, wait as before.)
 RC_HD uint32_t stage_wants_refresh_now(const StepView& s, uint32_t i) {
   const float d = float_from_bits(s.bound[i]);
   const bool was_inside = (s.flags[i] & kFlagInside) != 0u;
