@@ -231,7 +231,12 @@ void SkinnedMesh::skin(const std::vector<Affine>& joint_matrices, std::vector<Ve
 
 SkinnedMesh load_skinned_mesh(const std::string& path, const std::string& animation, const Fail& fail) {
   if (!std::filesystem::exists(path)) fail("file", "glTF file '" + path + "' does not exist");
+  if (!std::filesystem::is_regular_file(path)) fail("file", "glTF file '" + path + "' is not a regular file");
   tinygltf::TinyGLTF loader;
+  // Textures are never used: their bytes are not decoded.
+  loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
+                           void*) { return true; },
+                        nullptr);
   tinygltf::Model m;
   std::string err, warn;
   const bool binary = std::filesystem::path(path).extension() == ".glb";
