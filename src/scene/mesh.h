@@ -32,6 +32,8 @@ struct ObjTriangles {
 // every `v` line checked first. On a missing or malformed file it calls fail(reason), which must
 // throw; reason is "does not exist", "is malformed: ..." or "line N: ...".
 ObjTriangles read_obj_triangles(const std::string& path, const std::function<void(const std::string&)>& fail);
+// The same on OBJ text already in memory (materials are never read).
+ObjTriangles parse_obj_triangles(const std::string& text, const std::function<void(const std::string&)>& fail);
 // Reads an OBJ obstacle; throws InputError(file, field, "OBJ file 'PATH' " + reason).
 TriMesh load_obj_mesh(const std::string& path, const std::string& scene_file, const std::string& field);
 

@@ -51,6 +51,9 @@ std::string pointer_token(std::string_view key) {
   return s;
 }
 
+// The most cloth vertices (all panels) and UV-sphere vertices a scene may ask for.
+constexpr int64_t kMaxVertices = int64_t(1) << 22;
+
 constexpr std::string_view kEdges[] = {"left", "right", "bottom", "top"};
 constexpr std::string_view kCorners[] = {"bottom_left", "bottom_right", "top_left", "top_right"};
 
@@ -526,6 +529,9 @@ SceneDef load_scene_file(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw InputError(path, "", std::string("cannot open scene file: ") + std::strerror(EISDIR));
+  // A device or a pipe (/dev/zero) would be read forever.
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw InputError(path, "", "cannot open scene file: it is not a regular file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", std::string("cannot open scene file: ") + std::strerror(errno));
   std::ostringstream text;
@@ -628,6 +634,13 @@ void validate_scene(const SceneDef& s) {
     non_negative(m.spring_damping, p + "/spring_damping");
   }
 
+  // Input that would not fit in memory or never end is refused with its reason (and a limit) rather
+  // than running out of memory or time.
+  if (s.time.duration / s.time.dt > 1e12)
+    fail("/time/dt", "the run would take more than 1e12 steps (duration " + num(s.time.duration) + " s, dt " + num(s.time.dt) + " s)");
+  if (s.time.duration * s.time.fps > 1e6)
+    fail("/time/fps", "the run would write more than 1000000 frames (duration " + num(s.time.duration) + " s, fps " + num(s.time.fps) + ")");
+  int64_t cloth_vertices = 0;
   if (s.panels.empty()) fail("/panels", "the scene needs at least one panel");
   for (size_t i = 0; i < s.panels.size(); ++i) {
     const PanelDef& pd = s.panels[i];
@@ -645,9 +658,12 @@ void validate_scene(const SceneDef& s) {
           fail(p + "/size", "both must be positive (got " + num_list(std::array<float, 2>{pd.width, pd.height}) + ")");
         const std::array<int, 2> res{pd.resolution_u, pd.resolution_v};
         if (res[0] < 2 || res[1] < 2) fail(p + "/resolution", "both must be at least 2 (got " + num_list(res) + ")");
-        // Vertex ids are 32-bit; far below that the run would not fit in memory anyway.
-        if (int64_t(res[0]) * res[1] > (int64_t(1) << 28))
-          fail(p + "/resolution", "too many vertices (got " + num_list(res) + ")");
+        // Far below 32-bit vertex ids: a bigger cloth would not fit in memory or finish a step soon.
+        if (int64_t(res[0]) * res[1] > kMaxVertices)
+          fail(p + "/resolution", "too many vertices (got " + num_list(res) + ", at most " + std::to_string(kMaxVertices) + " in all)");
+        cloth_vertices += int64_t(res[0]) * res[1];
+        if (cloth_vertices > kMaxVertices)
+          fail(p + "/resolution", "the panels have too many vertices in all (at most " + std::to_string(kMaxVertices) + ")");
         break;
       }
       case PanelShape::Mesh:
@@ -773,6 +789,9 @@ void validate_scene(const SceneDef& s) {
         positive(od.radius, p + "/radius");
         if (od.slices < 3) fail(p + "/slices", "must be at least 3 (got " + std::to_string(od.slices) + ")");
         if (od.stacks < 2) fail(p + "/stacks", "must be at least 2 (got " + std::to_string(od.stacks) + ")");
+        if (int64_t(od.slices) * od.stacks > kMaxVertices)
+          fail(p + "/slices", "too many vertices: slices x stacks is " + std::to_string(int64_t(od.slices) * od.stacks) +
+                                  ", at most " + std::to_string(kMaxVertices));
         break;
       case ObstacleType::Box: positive3(od.size, p + "/size"); break;
       case ObstacleType::Plane:
