@@ -144,6 +144,17 @@ TEST(FuzzObj, SkinWeightLinesAreNotRead) {
   EXPECT_EQ(obj_message(path), "scene.json: /obstacles/0/file: OBJ file '" + path + "' is malformed: it has no faces");
 }
 
+// Found by fuzz_obj (100k executions into the second run): a lone carriage return ends a line for
+// tinyobjloader, so "\rvw ..." was a `vw` line that the blanking missed; "\rv nan ..." likewise
+// escaped the coordinate check. Lines are now split as tinyobjloader splits them.
+TEST(FuzzObj, ACarriageReturnEndsALineAsInTinyobjloader) {
+  const std::string vw = kData + "obj_vw_after_cr.obj";
+  EXPECT_EQ(obj_message(vw), "scene.json: /obstacles/0/file: OBJ file '" + vw + "' is malformed: it has no faces");
+  const std::string nan = kData + "obj_cr_nan.obj";
+  EXPECT_EQ(obj_message(nan),
+            "scene.json: /obstacles/0/file: OBJ file '" + nan + "' line 3: vertex coordinate 'nan' is not a finite number");
+}
+
 // tinyobjloader skips indentation before `v`; the coordinate check did not, and let "nan" through as 0.
 TEST(FuzzObj, IndentedVertexLinesAreChecked) {
   const std::string path = kData + "obj_indented_nan.obj";

@@ -101,10 +101,26 @@ std::string without_skin_weight_lines(const std::string& text) {
   return out;
 }
 
+// Lines end as tinyobjloader ends them: "\n", "\r\n" or a lone "\r". Made "\n" everywhere, so that the
+// checks here see the lines tinyobjloader reads (and number them as it does).
+std::string with_newline_ends(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (size_t i = 0; i < text.size(); ++i) {
+    if (text[i] != '\r') {
+      out += text[i];
+    } else {
+      out += '\n';
+      if (i + 1 < text.size() && text[i + 1] == '\n') ++i;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 ObjTriangles parse_obj_triangles(const std::string& raw_text, const std::function<void(const std::string&)>& fail) {
-  const std::string text = without_skin_weight_lines(raw_text);
+  const std::string text = without_skin_weight_lines(with_newline_ends(raw_text));
   check_obj_vertex_lines(text, fail);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
