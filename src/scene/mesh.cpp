@@ -151,12 +151,17 @@ ObjTriangles parse_obj_triangles(const std::string& raw_text, const std::functio
   return m;
 }
 
-ObjTriangles read_obj_triangles(const std::string& path, const std::function<void(const std::string&)>& fail) {
+std::string input_file_problem(const std::string& path) {
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
-  if (!std::filesystem::exists(status)) fail("does not exist");
-  // A device or a pipe (/dev/zero, /dev/stdin) would be read forever.
-  if (!std::filesystem::is_regular_file(status)) fail("is not a regular file");
+  if (status.type() == std::filesystem::file_type::not_found) return "does not exist";
+  if (ec) return "cannot be read: " + ec.message();
+  if (!std::filesystem::is_regular_file(status)) return "is not a regular file";
+  return "";
+}
+
+ObjTriangles read_obj_triangles(const std::string& path, const std::function<void(const std::string&)>& fail) {
+  if (const std::string problem = input_file_problem(path); !problem.empty()) fail(problem);
   std::ifstream in(path, std::ios::binary);
   std::ostringstream text;
   text << in.rdbuf();

@@ -28,6 +28,11 @@ struct ObjTriangles {
   std::vector<std::string> group_names;
   std::vector<uint32_t> group_first_triangle;
 };
+// What keeps `path` from being read as an input file: "" when it is a regular file, else "does not
+// exist", "is not a regular file" (a device or a pipe would be read forever) or "cannot be read:
+// REASON" (a name too long, a folder that cannot be searched). Never throws.
+std::string input_file_problem(const std::string& path);
+
 // The one OBJ reader (scene obstacles, `raycloth check`, `raycloth render`): tinyobjloader, with
 // every `v` line checked first. On a missing or malformed file it calls fail(reason), which must
 // throw; reason is "does not exist", "is malformed: ..." or "line N: ...".

@@ -19,6 +19,7 @@
 #include "raycloth/error.h"
 #include "raycloth/scene.h"
 #include "scene/json_text.h"
+#include "scene/mesh.h"
 
 namespace raycloth {
 
@@ -800,11 +801,11 @@ void validate_scene(const SceneDef& s) {
         break;
       case ObstacleType::Mesh:
         if (od.file.empty()) fail(p + "/file", "a mesh obstacle needs an OBJ file");
-        if (!std::filesystem::exists(od.file)) fail(p + "/file", "OBJ file '" + od.file + "' does not exist");
+        if (const auto why = input_file_problem(od.file); !why.empty()) fail(p + "/file", "OBJ file '" + od.file + "' " + why);
         break;
       case ObstacleType::Skinned:
         if (od.file.empty()) fail(p + "/file", "a skinned obstacle needs a glTF file");
-        if (!std::filesystem::exists(od.file)) fail(p + "/file", "glTF file '" + od.file + "' does not exist");
+        if (const auto why = input_file_problem(od.file); !why.empty()) fail(p + "/file", "glTF file '" + od.file + "' " + why);
         if (!(std::isfinite(od.speed) && od.speed >= 0.0f))
           fail(p + "/speed", "must be a number >= 0");
         if (od.offset && !std::isfinite(*od.offset)) fail(p + "/offset", "must be finite");

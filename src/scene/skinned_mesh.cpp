@@ -9,6 +9,7 @@
 #include <filesystem>
 
 #include "scene/json_text.h"
+#include "scene/mesh.h"
 
 namespace raycloth {
 
@@ -251,8 +252,7 @@ void SkinnedMesh::skin(const std::vector<Affine>& joint_matrices, std::vector<Ve
 }
 
 SkinnedMesh load_skinned_mesh(const std::string& path, const std::string& animation, const Fail& fail) {
-  if (!std::filesystem::exists(path)) fail("file", "glTF file '" + path + "' does not exist");
-  if (!std::filesystem::is_regular_file(path)) fail("file", "glTF file '" + path + "' is not a regular file");
+  if (const std::string why = input_file_problem(path); !why.empty()) fail("file", "glTF file '" + path + "' " + why);
   tinygltf::TinyGLTF loader;
   // Textures are never used: their bytes are not decoded.
   loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
