@@ -134,6 +134,8 @@ void GlbSink::frame(Simulator& sim, const FrameRecord& r) {
 void GlbSink::save(ByteWriter& out) {
   out.vec(times_);
   for (const auto& f : frames_) out.vec(f);
+  out.u64(obstacle_frames_.size());
+  for (const auto& f : obstacle_frames_) out.vec(f);
 }
 
 void GlbSink::resume(Simulator& sim, const std::filesystem::path& out, ByteReader& in) {
@@ -141,6 +143,9 @@ void GlbSink::resume(Simulator& sim, const std::filesystem::path& out, ByteReade
   in.vec(times_);
   frames_.resize(times_.size());
   for (auto& f : frames_) in.vec(f, sim.model().num_vertices(), "cloth vertices");
+  obstacle_frames_.resize(in.u64());
+  if (!obstacle_frames_.empty() && obstacle_frames_.size() != frames_.size()) in.fail("was written for other outputs");
+  for (auto& f : obstacle_frames_) in.vec(f, sim.obstacles().world.vertices.size(), "obstacle vertices");
 }
 
 void GlbSink::end(Simulator& sim) {
