@@ -166,6 +166,11 @@ TEST(Cli, CheckOfAFolderWithoutFramesSaysWhy) {
   r = run_cli("check " + (dir / "missing").string(), dir);
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(r.err, "raycloth: error: " + (dir / "missing").string() + ": not a folder\n");
+  // A name the system refuses (too long) is not a folder either, not a filesystem_error.
+  const std::string long_name = (dir / std::string(300, 'a')).string();
+  r = run_cli("check " + long_name, dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "raycloth: error: " + long_name + ": not a folder\n");
 }
 
 TEST(Cli, RunWhosePenetrationCheckFailsExitsOneWithEverythingWritten) {

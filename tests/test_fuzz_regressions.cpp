@@ -179,6 +179,12 @@ TEST(FuzzScene, AFileNameTooLongIsAnInputError) {
                           "fuzz.json");
             }),
             "fuzz.json: /obstacles/0/file: OBJ file '" + name + "/x.obj' cannot be read: File name too long");
+  EXPECT_EQ(message_of([&] {
+              parse_scene(R"({"materials": [{"name": "m"}], "panels": [{"name": "a", "material": "m", "mesh": ")" + name +
+                              R"(/x.obj"}]})",
+                          "fuzz.json");
+            }),
+            "fuzz.json: /panels/0/mesh: OBJ file '" + name + "/x.obj' cannot be read: File name too long");
   EXPECT_EQ(obj_message(name + "/x.obj"),
             "scene.json: /obstacles/0/file: OBJ file '" + name + "/x.obj' cannot be read: File name too long");
   EXPECT_EQ(gltf_message(name + "/x.glb"),

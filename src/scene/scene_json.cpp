@@ -669,7 +669,7 @@ void validate_scene(const SceneDef& s) {
       }
       case PanelShape::Mesh:
         if (pd.mesh_file.empty()) fail(p + "/mesh", "a mesh panel needs an OBJ file");
-        if (!std::filesystem::exists(pd.mesh_file)) fail(p + "/mesh", "OBJ file '" + pd.mesh_file + "' does not exist");
+        if (const auto why = input_file_problem(pd.mesh_file); !why.empty()) fail(p + "/mesh", "OBJ file '" + pd.mesh_file + "' " + why);
         break;
       case PanelShape::Pattern: {
         const PatternDef& pat = pd.pattern;
