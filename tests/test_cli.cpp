@@ -71,8 +71,16 @@ TEST(Cli, DefaultSceneShortenedRunsAndEndsPenetrationFree) {
   EXPECT_EQ(c.code, 0) << c.out << c.err;
   EXPECT_NE(c.out.find("14 frames, 0 bad: 0 edge-triangle crossings and 0 vertices inside"), std::string::npos) << c.out;
 
+  // Wall-clock figures are in timing.json; run.json holds only what the simulation determines.
+  std::ifstream timing_in(out / "timing.json");
+  const nlohmann::json timing = nlohmann::json::parse(timing_in);
   for (const char* stage : {"forces_and_integration", "acceleration_structure_update", "ray_casting", "response"})
-    EXPECT_GT(j["stage_ms_per_step"][stage].get<double>(), 0.0) << stage;
+    EXPECT_GT(timing["stage_ms_per_step"][stage].get<double>(), 0.0) << stage;
+  EXPECT_GT(timing["wall_time"].get<double>(), 0.0);
+  EXPECT_EQ(timing["frames"].size(), 14u);
+  for (const char* wall_clock : {"wall_time", "steps_per_second", "stage_ms_per_step"}) EXPECT_FALSE(j.contains(wall_clock));
+  EXPECT_FALSE(j["frames"][1].contains("steps_per_second"));
+  EXPECT_FALSE(fs::exists(out / "checkpoint.bin"));  // removed when the run is complete
   // One `o NAME` per panel in each frame, with vertex normals.
   std::ifstream obj(out / "frames" / "cloth_0012.obj");
   std::string line;
@@ -114,13 +122,13 @@ TEST(Cli, FormatOptionWritesTheChosenFormatsOnly) {
   ASSERT_EQ(r.code, 0) << r.err;
   const fs::path out = dir / "out";
   for (const char* f : {"frames/cloth_0000.ply", "frames/cloth_0002.ply", "cloth.pc2", "cloth_rest.obj", "cloth.glb",
-                        "obstacles.obj", "run.json", "summary.png"})
+                        "obstacles.obj", "run.json", "timing.json", "summary.png"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
   EXPECT_FALSE(fs::exists(out / "frames" / "cloth_0000.obj"));
   std::ifstream in(out / "run.json");
   const nlohmann::json j = nlohmann::json::parse(in);
   EXPECT_EQ(j["outputs"], (nlohmann::json{"frames/cloth_*.ply", "cloth.pc2", "cloth_rest.obj", "cloth.glb",
-                                          "obstacles.obj", "run.json", "summary.png"}));
+                                          "obstacles.obj", "run.json", "timing.json", "summary.png"}));
 }
 
 TEST(Cli, BadFormatIsRefusedWithTheSceneFilesReasonBeforeAnythingIsWritten) {
@@ -158,6 +166,11 @@ TEST(Cli, CheckOfAFolderWithoutFramesSaysWhy) {
   r = run_cli("check " + (dir / "missing").string(), dir);
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(r.err, "raycloth: error: " + (dir / "missing").string() + ": not a folder\n");
+  // A name the system refuses (too long) is not a folder either, not a filesystem_error.
+  const std::string long_name = (dir / std::string(300, 'a')).string();
+  r = run_cli("check " + long_name, dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "raycloth: error: " + long_name + ": not a folder\n");
 }
 
 TEST(Cli, RunWhosePenetrationCheckFailsExitsOneWithEverythingWritten) {

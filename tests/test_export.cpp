@@ -337,7 +337,7 @@ TEST(Export, FormatsComeFromTheSceneUnlessOverridden) {
   std::ifstream in(out / "run.json");
   const nlohmann::json j = nlohmann::json::parse(in);
   EXPECT_EQ(j["outputs"], (nlohmann::json{"frames/cloth_*.ply", "cloth.pc2", "cloth_rest.obj", "obstacles.obj",
-                                          "run.json", "summary.png"}));
+                                          "run.json", "timing.json", "summary.png"}));
 
   const fs::path out2 = fresh_dir("option_formats");
   opt.out_dir = out2;

@@ -8,6 +8,7 @@ namespace raycloth::cli {
 // Each returns the action to run when its subcommand was chosen; the action returns the exit code.
 using Action = std::function<int()>;
 Action add_run_command(CLI::App& app);
+Action add_resume_command(CLI::App& app);
 Action add_bench_command(CLI::App& app);
 Action add_render_command(CLI::App& app);
 Action add_check_command(CLI::App& app);

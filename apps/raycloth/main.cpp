@@ -42,12 +42,14 @@ int main(int argc, char** argv) {
   spdlog::set_pattern("[%H:%M:%S] %^%l%$ %v");
   std::vector<std::pair<CLI::App*, raycloth::cli::Action>> actions;
   raycloth::cli::Action run = raycloth::cli::add_run_command(app);
+  raycloth::cli::Action resume = raycloth::cli::add_resume_command(app);
   raycloth::cli::Action bench = raycloth::cli::add_bench_command(app);
   raycloth::cli::Action render = raycloth::cli::add_render_command(app);
   raycloth::cli::Action check = raycloth::cli::add_check_command(app);
   CLI11_PARSE(app, argc, argv);
   for (auto* sub : app.get_subcommands()) {
     if (sub->get_name() == "run") return run();
+    if (sub->get_name() == "resume") return resume();
     if (sub->get_name() == "bench") return bench();
     if (sub->get_name() == "render") return render();
     if (sub->get_name() == "check") return check();

@@ -29,6 +29,8 @@ struct StageTimes {
 };
 
 class Backend;
+class ByteWriter;
+class ByteReader;
 
 class Simulator {
  public:
@@ -63,6 +65,12 @@ class Simulator {
   // Steps that recomputed the displacement bound (the others reuse the last one).
   uint64_t bound_refreshes() const { return refreshes_total_; }
   const StageTimes& stage_times() const { return times_; }
+
+  // Checkpoints (io/checkpoint.h): the whole state after steps(), so that a Simulator built from the
+  // same scene and restored steps on bit for bit as this one would. The CPU backend has them.
+  bool can_checkpoint() const;
+  void save_state(ByteWriter& out);
+  void restore_state(ByteReader& in);
 
  private:
   SceneDef scene_;

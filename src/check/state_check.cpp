@@ -71,10 +71,10 @@ CheckMesh read_obj(const fs::path& path) {
 }  // namespace
 
 FolderCheck check_output_folder(const fs::path& dir, const std::function<void(const FolderFrameCheck&)>& on_frame) {
-  if (!fs::is_directory(dir)) throw InputError(dir.string(), "", "not a folder");
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw InputError(dir.string(), "", "not a folder");
   std::map<int, fs::path> frames;
   const std::regex name(R"(cloth_(\d+)\.obj)");
-  std::error_code ec;
   for (const auto& entry : fs::directory_iterator(dir / "frames", ec)) {
     std::smatch m;
     const std::string file = entry.path().filename().string();

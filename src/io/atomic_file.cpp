@@ -14,7 +14,7 @@ void write_file_atomically(const std::filesystem::path& path, const std::functio
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) throw std::runtime_error(path.string() + ": cannot write: " + std::strerror(errno));
     write(out);
-    out.flush();
+    out.close();  // a full disk can show only here
     if (!out) {
       std::error_code ec;
       std::filesystem::remove(tmp, ec);

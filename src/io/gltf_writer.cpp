@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "io/atomic_file.h"
+#include "io/checkpoint.h"
 #include "io/obj_writer.h"
 #include "scene/transform.h"
 #include "sim/model.h"
@@ -127,6 +128,24 @@ void GlbSink::frame(Simulator& sim, const FrameRecord& r) {
   bool any_skinned = false;
   for (const auto& sk : sim.obstacles().skinned) any_skinned = any_skinned || sk;
   if (any_skinned) obstacle_frames_.push_back(sim.obstacle_vertices());
+}
+
+// Checkpoints hold the frames kept so far.
+void GlbSink::save(ByteWriter& out) {
+  out.vec(times_);
+  for (const auto& f : frames_) out.vec(f);
+  out.u64(obstacle_frames_.size());
+  for (const auto& f : obstacle_frames_) out.vec(f);
+}
+
+void GlbSink::resume(Simulator& sim, const std::filesystem::path& out, ByteReader& in) {
+  begin(sim, out);
+  in.vec(times_);
+  frames_.resize(times_.size());
+  for (auto& f : frames_) in.vec(f, sim.model().num_vertices(), "cloth vertices");
+  obstacle_frames_.resize(in.u64());
+  if (!obstacle_frames_.empty() && obstacle_frames_.size() != frames_.size()) in.fail("was written for other outputs");
+  for (auto& f : obstacle_frames_) in.vec(f, sim.obstacles().world.vertices.size(), "obstacle vertices");
 }
 
 void GlbSink::end(Simulator& sim) {

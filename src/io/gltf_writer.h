@@ -22,6 +22,8 @@ class GlbSink final : public FrameSink {
   void begin(Simulator& sim, const std::filesystem::path& out_dir) override;
   void frame(Simulator& sim, const FrameRecord& record) override;
   void end(Simulator& sim) override;
+  void save(ByteWriter& out) override;
+  void resume(Simulator& sim, const std::filesystem::path& out_dir, ByteReader& in) override;
 
  private:
   std::filesystem::path path_;

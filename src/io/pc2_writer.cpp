@@ -8,6 +8,8 @@
 #include <stdexcept>
 
 #include "io/atomic_file.h"
+#include "io/checkpoint.h"
+#include "raycloth/error.h"
 #include "sim/model.h"
 
 namespace raycloth {
@@ -53,6 +55,28 @@ Pc2File::Pc2File(std::filesystem::path path, uint32_t num_points, float start_fr
 
 Pc2File::~Pc2File() = default;
 
+std::unique_ptr<Pc2File> Pc2File::reopen(std::filesystem::path path, uint32_t num_points, uint32_t num_samples) {
+  std::unique_ptr<Pc2File> f(new Pc2File());
+  f->path_ = std::move(path);
+  f->tmp_ = f->path_;
+  f->tmp_ += ".tmp";
+  f->num_points_ = num_points;
+  f->num_samples_ = num_samples;
+  const uintmax_t want = uintmax_t(kNumSamplesOffset) + 4 + uintmax_t(num_samples) * num_points * sizeof(Vec3);
+  std::error_code ec;
+  const uintmax_t have = std::filesystem::file_size(f->tmp_, ec);
+  if (ec || have < want)
+    throw InputError(f->tmp_.string(), "", fmt::format("holds fewer than the {} samples the checkpoint counts ({}); start "
+                                                       "the run again without --resume",
+                                                       num_samples, ec ? ec.message() : std::to_string(have) + " bytes"));
+  std::filesystem::resize_file(f->tmp_, want, ec);
+  if (ec) throw std::runtime_error(f->tmp_.string() + ": cannot cut to the checkpoint: " + ec.message());
+  f->out_.open(f->tmp_, std::ios::binary | std::ios::in | std::ios::out);
+  f->out_.seekp(0, std::ios::end);
+  if (!f->out_) throw std::runtime_error(f->path_.string() + ": cannot write: " + std::strerror(errno));
+  return f;
+}
+
 void Pc2File::add_sample(const std::vector<Vec3>& points) {
   if (points.size() != num_points_)
     throw std::logic_error(fmt::format("{}: sample of {} points, expected {}", path_.string(), points.size(), num_points_));
@@ -60,6 +84,11 @@ void Pc2File::add_sample(const std::vector<Vec3>& points) {
   out_.write(reinterpret_cast<const char*>(points.data()), std::streamsize(points.size() * sizeof(Vec3)));
   if (!out_) throw std::runtime_error(path_.string() + ": write failed: " + std::strerror(errno));
   ++num_samples_;
+}
+
+void Pc2File::flush() {
+  out_.flush();
+  if (!out_) throw std::runtime_error(path_.string() + ": write failed: " + std::strerror(errno));
 }
 
 void Pc2File::finish() {
@@ -86,6 +115,16 @@ void Pc2Sink::frame(Simulator& sim, const FrameRecord& r) {
 
 void Pc2Sink::end(Simulator&) {
   if (file_) file_->finish();
+}
+
+void Pc2Sink::save(ByteWriter& out) {
+  file_->flush();
+  out.u32(file_->num_samples());
+}
+
+void Pc2Sink::resume(Simulator& sim, const std::filesystem::path& out, ByteReader& in) {
+  out_dir_ = out;
+  file_ = Pc2File::reopen(out / "cloth.pc2", sim.model().num_vertices(), in.u32());
 }
 
 }  // namespace raycloth

@@ -24,14 +24,21 @@ class Pc2File {
   Pc2File(const Pc2File&) = delete;
   Pc2File& operator=(const Pc2File&) = delete;
 
+  // Continues "<path>.tmp" after its first `num_samples` samples (a resumed run): what was written
+  // after them is cut off. Throws std::runtime_error when the file is missing or shorter.
+  static std::unique_ptr<Pc2File> reopen(std::filesystem::path path, uint32_t num_points, uint32_t num_samples);
+
   void add_sample(const std::vector<Vec3>& points);
+  // Hands what was written so far to the system (before a checkpoint names it).
+  void flush();
   void finish();
   uint32_t num_samples() const { return num_samples_; }
 
  private:
+  Pc2File() = default;
   std::filesystem::path path_, tmp_;
   std::ofstream out_;
-  uint32_t num_points_, num_samples_ = 0;
+  uint32_t num_points_ = 0, num_samples_ = 0;
   bool finished_ = false;
 };
 
@@ -42,6 +49,8 @@ class Pc2Sink final : public FrameSink {
   void begin(Simulator& sim, const std::filesystem::path& out_dir) override;
   void frame(Simulator& sim, const FrameRecord& record) override;
   void end(Simulator& sim) override;
+  void save(ByteWriter& out) override;
+  void resume(Simulator& sim, const std::filesystem::path& out_dir, ByteReader& in) override;
 
  private:
   std::filesystem::path out_dir_;

@@ -4,13 +4,17 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
+#include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "check/state_check.h"
 #include "io/atomic_file.h"
+#include "io/checkpoint.h"
 #include "io/gltf_writer.h"
 #include "io/obj_writer.h"
 #include "io/pc2_writer.h"
@@ -121,18 +125,10 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
   j["natural_period_T0"] = m.natural_period();
   j["steps"] = r.steps;
   j["simulated_time"] = r.simulated_time;
-  j["wall_time"] = r.wall_time;
-  j["steps_per_second"] = r.steps_per_second;
-  const double per = r.steps > 0 ? 1000.0 / double(r.steps) : 0.0;
-  j["stage_ms_per_step"] = {{"forces_and_integration", r.stages.integrate * per},
-                            {"acceleration_structure_update", r.stages.update * per},
-                            {"ray_casting", r.stages.cast * per},
-                            {"response", r.stages.respond * per},
-                            {"displacement_bound", r.stages.bound * per}};
   nlohmann::json frames = nlohmann::json::array();
   for (const auto& f : r.frames) {
     nlohmann::json jf = {{"index", f.index}, {"time", f.time}, {"step", f.step}, {"hits", f.hits}, {"clamped", f.clamped},
-                         {"pushed", f.pushed}, {"kinetic_energy", f.kinetic_energy}, {"steps_per_second", f.steps_per_second}};
+                         {"pushed", f.pushed}, {"kinetic_energy", f.kinetic_energy}};
     if (f.crossings >= 0) {
       jf["crossings"] = f.crossings;
       jf["vertices_inside"] = f.vertices_inside;
@@ -164,6 +160,72 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
   return j;
 }
 
+// timing.json: the wall-clock figures, which differ between any two runs of the same scene.
+nlohmann::json timing_json(const RunReport& r) {
+  nlohmann::json j;
+  j["wall_time"] = r.wall_time;
+  j["steps_per_second"] = r.steps_per_second;
+  const double per = r.steps > 0 ? 1000.0 / double(r.steps) : 0.0;
+  j["stage_ms_per_step"] = {{"forces_and_integration", r.stages.integrate * per},
+                            {"acceleration_structure_update", r.stages.update * per},
+                            {"ray_casting", r.stages.cast * per},
+                            {"response", r.stages.respond * per},
+                            {"displacement_bound", r.stages.bound * per}};
+  nlohmann::json frames = nlohmann::json::array();
+  for (const auto& f : r.frames) frames.push_back({{"index", f.index}, {"steps_per_second", f.steps_per_second}});
+  j["frames"] = frames;
+  return j;
+}
+
+// Creates OUT/frames and proves that a file can be written in OUT, before anything is simulated.
+void prepare_output_folder(const fs::path& out) {
+  const std::string where = out.string();
+  auto fail = [&](const std::string& why) { throw InputError(where, "", "cannot write the output folder: " + why); };
+  std::error_code ec;
+  fs::create_directories(out / "frames", ec);
+  if (ec) fail(ec.message());
+  const fs::path probe = out / ".raycloth_write_test";
+  {
+    std::ofstream f(probe, std::ios::binary | std::ios::trunc);
+    if (!f) fail(std::strerror(errno));
+    f << "raycloth\n";
+    f.close();
+    if (!f) fail(std::strerror(errno));
+  }
+  fs::remove(probe, ec);
+}
+
+// The keys whose values differ between two settings objects, for the message refusing a resume.
+std::string settings_difference(const std::string& a, const std::string& b) {
+  const nlohmann::json ja = nlohmann::json::parse(a, nullptr, false), jb = nlohmann::json::parse(b, nullptr, false);
+  std::string out;
+  if (ja.is_object() && jb.is_object()) {
+    for (const auto& [key, value] : jb.items())
+      if (!ja.contains(key) || ja[key] != value)
+        out += fmt::format("{}{}: {} then, {} now", out.empty() ? "" : "; ", key, ja.contains(key) ? ja[key].dump() : "none", value.dump());
+  }
+  return out.empty() ? "the settings differ" : out;
+}
+
+void save_check(ByteWriter& w, const RunCheck& c) {
+  for (uint64_t v : {uint64_t(c.frames_checked), uint64_t(c.bad_frames), uint64_t(int64_t(c.first_bad_frame)),
+                     uint64_t(c.max_crossings), uint64_t(c.max_vertices_inside), uint64_t(c.closed_obstacles),
+                     uint64_t(c.open_obstacles)})
+    w.u64(v);
+  w.str(c.first_problem);
+}
+
+void restore_check(ByteReader& r, RunCheck& c) {
+  c.frames_checked = r.u64();
+  c.bad_frames = r.u64();
+  c.first_bad_frame = int(int64_t(r.u64()));
+  c.max_crossings = r.u64();
+  c.max_vertices_inside = r.u64();
+  c.closed_obstacles = r.u64();
+  c.open_obstacles = r.u64();
+  c.first_problem = r.str();
+}
+
 }  // namespace
 
 RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
@@ -182,9 +244,7 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
   const uint64_t total_steps = uint64_t(std::llround(scene.time.duration / scene.time.dt));
   const int num_frames = int((total_steps + steps_per_frame - 1) / steps_per_frame);
 
-  std::error_code ec;
-  fs::create_directories(opt.out_dir / "frames", ec);
-  if (ec) throw std::runtime_error(opt.out_dir.string() + ": cannot create the output folder: " + ec.message());
+  prepare_output_folder(opt.out_dir);
 
   RunReport report;
   report.check.enabled = opt.check;
@@ -192,12 +252,37 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
   for (const std::string& f : scene.output.formats)
     if (f != "obj" || opt.write_obj) sinks.push_back(format_sink(f, sim.obstacles().any_moving, report.outputs));
   sinks.insert(sinks.end(), opt.sinks.begin(), opt.sinks.end());
-  report.outputs.insert(report.outputs.end(), {"obstacles.obj", "run.json", "summary.png"});
+  report.outputs.insert(report.outputs.end(), {"obstacles.obj", "run.json", "timing.json", "summary.png"});
 
   report.scene = scene.name;
   report.device = sim.device();
-  write_obstacles_obj(opt.out_dir / "obstacles.obj", sim.obstacles(), sim.obstacle_vertices());
-  for (auto& s : sinks) s->begin(sim, opt.out_dir);
+
+  // What a checkpoint must agree with to be resumed: the scene (and its meshes), the raycloth
+  // version, and every setting that changes what the run writes.
+  const CameraDef& cam = scene.output.camera;
+  nlohmann::json camera = {{"fov", cam.fov}, {"resolution", {cam.width, cam.height}}, {"samples", cam.samples}};
+  if (cam.position) camera["position"] = *cam.position;
+  if (cam.target) camera["target"] = *cam.target;
+  const nlohmann::json settings = {{"scene", scene.name},
+                                   {"formats", scene.output.formats},
+                                   {"write_obj", opt.write_obj},
+                                   {"duration", scene.time.duration},
+                                   {"check", opt.check},
+                                   {"device", sim.device()},
+                                   {"allow_unstable_dt", opt.sim.allow_unstable_dt},
+                                   {"other_outputs", opt.sinks.size()},
+                                   {"camera", camera}};
+  const CheckpointHeader header{kCheckpointFormat, raycloth_version(), scene_fingerprint(scene, opt.scene_text),
+                                settings.dump(), opt.invocation};
+  const fs::path checkpoint_path = opt.out_dir / kCheckpointName;
+  auto remove_checkpoint = [&] {
+    std::error_code ignored;
+    fs::remove(checkpoint_path, ignored);
+    fs::remove(fs::path(checkpoint_path.string() + ".tmp"), ignored);
+  };
+  const bool checkpoints = opt.checkpoint_every > 0 && sim.can_checkpoint();
+  if (opt.checkpoint_every > 0 && !checkpoints)
+    spdlog::warn("device {} cannot write checkpoints: this run cannot be resumed", sim.device());
 
   uint64_t clamped_seen = 0, pushed_seen = 0;
   auto emit = [&](FrameRecord rec) {
@@ -239,15 +324,71 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
     report.steps_per_second = report.wall_time > 0 ? double(report.steps) / report.wall_time : 0.0;
     const nlohmann::json j = report_json(report, sim);
     write_file_atomically(opt.out_dir / "run.json", [&](std::ostream& out) { out << j.dump(2) << "\n"; });
+    const nlohmann::json t = timing_json(report);
+    write_file_atomically(opt.out_dir / "timing.json", [&](std::ostream& out) { out << t.dump(2) << "\n"; });
     write_run_summary(opt.out_dir / "summary.png", report);
   };
 
+  // After frame `done`: the state, the report so far and the sinks' own state.
+  auto save_checkpoint = [&](int done) {
+    ByteWriter w;
+    w.u32(uint32_t(done));
+    sim.save_state(w);
+    w.vec(report.frames);
+    w.f64(report.wall_time);
+    save_check(w, report.check);
+    w.u64(sinks.size());
+    for (auto& s : sinks) {
+      ByteWriter sw;
+      s->save(sw);
+      w.str(sw.bytes());
+    }
+    write_checkpoint(opt.out_dir, header, w.bytes());
+  };
+
+  int first_frame = 1;
+  if (opt.resume) {
+    static_assert(std::is_trivially_copyable_v<FrameRecord>);
+    const CheckpointFile cp = read_checkpoint(opt.out_dir);
+    const std::string file = checkpoint_path.string();
+    if (cp.header.scene_hash != header.scene_hash)
+      throw InputError(file, "", "was written for another scene (the scene file or a mesh it uses has changed); start "
+                                 "the run again without --resume");
+    if (cp.header.settings != header.settings)
+      throw InputError(file, "", "was written by a run with other settings (" +
+                                     settings_difference(cp.header.settings, header.settings) +
+                                     "); resume with the same options, or start again without --resume");
+    if (!sim.can_checkpoint()) throw InputError(file, "", "device " + sim.device() + " cannot resume from a checkpoint");
+    ByteReader in(cp.state, file);
+    const uint32_t done = in.u32();
+    if (done < 1 || done > uint32_t(num_frames)) in.fail("holds frame " + std::to_string(done) + ", not one of this run's");
+    sim.restore_state(in);
+    in.vec(report.frames, size_t(done) + 1, "frame records");
+    report.wall_time = in.f64();
+    restore_check(in, report.check);
+    if (in.u64() != sinks.size()) in.fail("was written for other outputs");
+    for (auto& s : sinks) {
+      const std::string blob = in.str();
+      ByteReader sr(blob, file);
+      s->resume(sim, opt.out_dir, sr);
+    }
+    if (!in.at_end()) in.fail("is truncated or damaged; start the run again without --resume");
+    clamped_seen = sim.clamped_total();
+    pushed_seen = sim.pushed_total();
+    first_frame = int(done) + 1;
+    if (!opt.quiet) spdlog::info("resuming at frame {} of {} (step {})", done, num_frames, sim.steps());
+  } else {
+    remove_checkpoint();  // a stale one from an earlier run in this folder
+    write_obstacles_obj(opt.out_dir / "obstacles.obj", sim.obstacles(), sim.obstacle_vertices());
+    for (auto& s : sinks) s->begin(sim, opt.out_dir);
+  }
+
   Progress progress(opt.quiet, num_frames);
-  emit(FrameRecord{});
+  if (first_frame == 1) emit(FrameRecord{});
   using Clock = std::chrono::steady_clock;
   const auto run_start = Clock::now();
   try {
-    for (int f = 1; f <= num_frames; ++f) {
+    for (int f = first_frame; f <= num_frames; ++f) {
       const int n = int(std::min<uint64_t>(steps_per_frame, total_steps - sim.steps()));
       const auto t0 = Clock::now();
       sim.step(n);
@@ -257,6 +398,7 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
       rec.index = f;
       rec.steps_per_second = dt > 0 ? n / dt : 0.0;
       emit(rec);
+      if (checkpoints && f % opt.checkpoint_every == 0 && f < num_frames) save_checkpoint(f);
       progress.update(f, std::chrono::duration<double>(Clock::now() - run_start).count());
     }
   } catch (const SimulationError& e) {
@@ -269,10 +411,12 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
       }
     }
     write_report();
+    remove_checkpoint();
     throw;
   }
   for (auto& s : sinks) s->end(sim);
   write_report();
+  remove_checkpoint();
   return report;
 }
 

@@ -14,6 +14,9 @@
 
 namespace raycloth {
 
+class ByteWriter;
+class ByteReader;
+
 struct FrameRecord {
   int index = 0;
   double time = 0;
@@ -47,6 +50,14 @@ class FrameSink {
   virtual void begin(Simulator& sim, const std::filesystem::path& out_dir) { (void)sim, (void)out_dir; }
   virtual void frame(Simulator& sim, const FrameRecord& record) = 0;
   virtual void end(Simulator& sim) { (void)sim; }
+  // Checkpoints: save() writes what the sink keeps between frames (frames on disk are not
+  // repeated); resume() stands for begin() when a run continues from a checkpoint, with what save()
+  // wrote then. A sink that keeps nothing needs neither.
+  virtual void save(ByteWriter& out) { (void)out; }
+  virtual void resume(Simulator& sim, const std::filesystem::path& out_dir, ByteReader& in) {
+    (void)in;
+    begin(sim, out_dir);
+  }
 };
 
 struct RunOptions {
@@ -59,6 +70,14 @@ struct RunOptions {
   std::optional<std::vector<std::string>> formats;
   bool write_obj = true;  // false: no OBJ frames even when the formats name obj
   bool check = true;      // the exact check of every frame (run.json's "check")
+  // Checkpoints (io/checkpoint.h): OUT/checkpoint.bin after every `checkpoint_every` frames (0: none),
+  // removed when the run ends. `resume` continues from it instead of starting over.
+  int checkpoint_every = 5;
+  bool resume = false;
+  // The scene's own text (identifies the scene in checkpoints; default: the file at scene.source).
+  std::string scene_text;
+  // Stored in the checkpoint as is (JSON; the CLI keeps its arguments there for `raycloth resume`).
+  std::string invocation = "{}";
 };
 
 struct RunReport {
@@ -66,6 +85,7 @@ struct RunReport {
   std::string device;
   uint64_t steps = 0;
   double simulated_time = 0;
+  // Wall-clock figures (timing.json, not run.json: they differ between any two runs).
   double wall_time = 0;  // seconds spent stepping (output excluded)
   double steps_per_second = 0;
   StageTimes stages;
@@ -76,9 +96,14 @@ struct RunReport {
   std::string error;  // set when the run stopped on a SimulationError
 };
 
-// Throws InputError / SimulationError before anything is written when the scene cannot run; on a
+// Throws InputError / SimulationError before anything is written when the scene cannot run, and
+// InputError ("OUT: cannot write the output folder: ...") when the folder cannot be written; on a
 // blow-up during the run, ends the sinks (cloth.pc2 and cloth.glb hold the frames so far), writes
-// run.json with the error and summary.png, keeps the frames, and rethrows.
+// run.json with the error and summary.png, keeps the frames, and rethrows. A file that cannot be
+// written (a full disk) stops the run with std::runtime_error naming it; the frames written before
+// stay whole, and the last checkpoint stays for a resume.
+// run.json holds only what the simulation determines (the same bytes for the same scene and
+// settings, resumed or not); timing.json holds the wall-clock figures.
 RunReport run_scene(const SceneDef& scene, const RunOptions& options);
 
 std::string frame_name(const std::string& prefix, int index, const std::string& ext);

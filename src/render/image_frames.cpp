@@ -8,6 +8,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "io/checkpoint.h"
 #include "raycloth/error.h"
 
 namespace raycloth {
@@ -64,6 +65,18 @@ void ImageFrames::frame(Simulator& sim, const FrameRecord& record) {
   seen_.add(scene.bounds());
   write_png(dir_ / frame_name("frame", record.index, "png"), renderer_.render(scene, make_view(seen_, camera_)));
   ++written_;
+}
+
+// The view follows everything seen so far: a resumed run continues from the same bounds.
+void ImageFrames::save(ByteWriter& out) {
+  out.pod(seen_);
+  out.u32(uint32_t(written_));
+}
+
+void ImageFrames::resume(Simulator& sim, const fs::path& out_dir, ByteReader& in) {
+  begin(sim, out_dir);
+  in.pod(seen_);
+  written_ = int(in.u32());
 }
 
 OutputFolder read_output_folder(const fs::path& dir) {

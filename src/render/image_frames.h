@@ -20,6 +20,8 @@ class ImageFrames final : public FrameSink {
   void begin(Simulator& sim, const std::filesystem::path& out_dir) override;
   void frame(Simulator& sim, const FrameRecord& record) override;
   int frames_written() const { return written_; }
+  void save(ByteWriter& out) override;
+  void resume(Simulator& sim, const std::filesystem::path& out_dir, ByteReader& in) override;
 
  private:
   CameraDef camera_;

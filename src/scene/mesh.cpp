@@ -2,7 +2,10 @@
 
 #include <tiny_obj_loader.h>
 
+#include <cerrno>
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -63,12 +66,13 @@ namespace {
 
 // tinyobjloader reads a coordinate it cannot parse ("nan", "abc") as 0 and one past the float range
 // as infinity, without a word; every `v` line is read here first, so that the error names the line.
-void check_obj_vertex_lines(const std::string& path, const std::function<void(const std::string&)>& fail) {
-  std::ifstream in(path);
+void check_obj_vertex_lines(const std::string& text, const std::function<void(const std::string&)>& fail) {
+  std::istringstream in(text);
   std::string line;
   for (size_t number = 1; std::getline(in, line); ++number) {
-    if (line.size() < 2 || line[0] != 'v' || (line[1] != ' ' && line[1] != '\t')) continue;
-    std::istringstream words(line.substr(2));
+    const size_t v = std::min(line.find_first_not_of(" \t"), line.size());  // tinyobjloader skips these too
+    if (line.size() < v + 2 || line[v] != 'v' || (line[v + 1] != ' ' && line[v + 1] != '\t')) continue;
+    std::istringstream words(line.substr(v + 2));
     std::string word;
     const std::string at = "line " + std::to_string(number) + ": ";
     for (int k = 0; k < 3; ++k) {
@@ -82,16 +86,48 @@ void check_obj_vertex_lines(const std::string& path, const std::function<void(co
   }
 }
 
+// `vw` lines (tinyobjloader's skin weights) are never used, and their parser converts a joint number
+// of any size to int (undefined past INT_MAX): they are blanked, keeping the line numbers.
+std::string without_skin_weight_lines(const std::string& text) {
+  std::string out = text;
+  for (size_t at = 0; at < out.size();) {
+    const size_t end = std::min(out.find('\n', at), out.size());
+    size_t p = at;
+    while (p < end && (out[p] == ' ' || out[p] == '\t')) ++p;
+    if (end - p >= 3 && out[p] == 'v' && out[p + 1] == 'w' && (out[p + 2] == ' ' || out[p + 2] == '\t'))
+      out.replace(at, end - at, end - at, ' ');
+    at = end + 1;
+  }
+  return out;
+}
+
+// Lines end as tinyobjloader ends them: "\n", "\r\n" or a lone "\r". Made "\n" everywhere, so that the
+// checks here see the lines tinyobjloader reads (and number them as it does).
+std::string with_newline_ends(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (size_t i = 0; i < text.size(); ++i) {
+    if (text[i] != '\r') {
+      out += text[i];
+    } else {
+      out += '\n';
+      if (i + 1 < text.size() && text[i + 1] == '\n') ++i;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
-ObjTriangles read_obj_triangles(const std::string& path, const std::function<void(const std::string&)>& fail) {
-  if (!std::filesystem::exists(path)) fail("does not exist");
-  check_obj_vertex_lines(path, fail);
+ObjTriangles parse_obj_triangles(const std::string& raw_text, const std::function<void(const std::string&)>& fail) {
+  const std::string text = without_skin_weight_lines(with_newline_ends(raw_text));
+  check_obj_vertex_lines(text, fail);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
   tinyobj::ObjReader reader;
-  if (!reader.ParseFromFile(path, config)) {
+  // No material text: `mtllib` names no file that would be opened (materials are not used).
+  if (!reader.ParseFromString(text, "", config)) {
     std::string why = reader.Error();
     while (!why.empty() && (why.back() == '\n' || why.back() == '\r')) why.pop_back();
     fail("is malformed: " + why);
@@ -113,6 +149,24 @@ ObjTriangles read_obj_triangles(const std::string& path, const std::function<voi
     }
   }
   return m;
+}
+
+std::string input_file_problem(const std::string& path) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (status.type() == std::filesystem::file_type::not_found) return "does not exist";
+  if (ec) return "cannot be read: " + ec.message();
+  if (!std::filesystem::is_regular_file(status)) return "is not a regular file";
+  return "";
+}
+
+ObjTriangles read_obj_triangles(const std::string& path, const std::function<void(const std::string&)>& fail) {
+  if (const std::string problem = input_file_problem(path); !problem.empty()) fail(problem);
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (!in || in.bad()) fail(std::string("cannot be read: ") + std::strerror(errno));
+  return parse_obj_triangles(text.str(), fail);
 }
 
 TriMesh load_obj_mesh(const std::string& path, const std::string& scene_file, const std::string& field) {

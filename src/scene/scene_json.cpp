@@ -19,6 +19,7 @@
 #include "raycloth/error.h"
 #include "raycloth/scene.h"
 #include "scene/json_text.h"
+#include "scene/mesh.h"
 
 namespace raycloth {
 
@@ -50,6 +51,9 @@ std::string pointer_token(std::string_view key) {
   }
   return s;
 }
+
+// The most cloth vertices (all panels) and UV-sphere vertices a scene may ask for.
+constexpr int64_t kMaxVertices = int64_t(1) << 22;
 
 constexpr std::string_view kEdges[] = {"left", "right", "bottom", "top"};
 constexpr std::string_view kCorners[] = {"bottom_left", "bottom_right", "top_left", "top_right"};
@@ -526,6 +530,9 @@ SceneDef load_scene_file(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw InputError(path, "", std::string("cannot open scene file: ") + std::strerror(EISDIR));
+  // A device or a pipe (/dev/zero) would be read forever.
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw InputError(path, "", "cannot open scene file: it is not a regular file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", std::string("cannot open scene file: ") + std::strerror(errno));
   std::ostringstream text;
@@ -628,6 +635,13 @@ void validate_scene(const SceneDef& s) {
     non_negative(m.spring_damping, p + "/spring_damping");
   }
 
+  // Input that would not fit in memory or never end is refused with its reason (and a limit) rather
+  // than running out of memory or time.
+  if (s.time.duration / s.time.dt > 1e12)
+    fail("/time/dt", "the run would take more than 1e12 steps (duration " + num(s.time.duration) + " s, dt " + num(s.time.dt) + " s)");
+  if (s.time.duration * s.time.fps > 1e6)
+    fail("/time/fps", "the run would write more than 1000000 frames (duration " + num(s.time.duration) + " s, fps " + num(s.time.fps) + ")");
+  int64_t cloth_vertices = 0;
   if (s.panels.empty()) fail("/panels", "the scene needs at least one panel");
   for (size_t i = 0; i < s.panels.size(); ++i) {
     const PanelDef& pd = s.panels[i];
@@ -645,14 +659,17 @@ void validate_scene(const SceneDef& s) {
           fail(p + "/size", "both must be positive (got " + num_list(std::array<float, 2>{pd.width, pd.height}) + ")");
         const std::array<int, 2> res{pd.resolution_u, pd.resolution_v};
         if (res[0] < 2 || res[1] < 2) fail(p + "/resolution", "both must be at least 2 (got " + num_list(res) + ")");
-        // Vertex ids are 32-bit; far below that the run would not fit in memory anyway.
-        if (int64_t(res[0]) * res[1] > (int64_t(1) << 28))
-          fail(p + "/resolution", "too many vertices (got " + num_list(res) + ")");
+        // Far below 32-bit vertex ids: a bigger cloth would not fit in memory or finish a step soon.
+        if (int64_t(res[0]) * res[1] > kMaxVertices)
+          fail(p + "/resolution", "too many vertices (got " + num_list(res) + ", at most " + std::to_string(kMaxVertices) + " in all)");
+        cloth_vertices += int64_t(res[0]) * res[1];
+        if (cloth_vertices > kMaxVertices)
+          fail(p + "/resolution", "the panels have too many vertices in all (at most " + std::to_string(kMaxVertices) + ")");
         break;
       }
       case PanelShape::Mesh:
         if (pd.mesh_file.empty()) fail(p + "/mesh", "a mesh panel needs an OBJ file");
-        if (!std::filesystem::exists(pd.mesh_file)) fail(p + "/mesh", "OBJ file '" + pd.mesh_file + "' does not exist");
+        if (const auto why = input_file_problem(pd.mesh_file); !why.empty()) fail(p + "/mesh", "OBJ file '" + pd.mesh_file + "' " + why);
         break;
       case PanelShape::Pattern: {
         const PatternDef& pat = pd.pattern;
@@ -773,6 +790,9 @@ void validate_scene(const SceneDef& s) {
         positive(od.radius, p + "/radius");
         if (od.slices < 3) fail(p + "/slices", "must be at least 3 (got " + std::to_string(od.slices) + ")");
         if (od.stacks < 2) fail(p + "/stacks", "must be at least 2 (got " + std::to_string(od.stacks) + ")");
+        if (int64_t(od.slices) * od.stacks > kMaxVertices)
+          fail(p + "/slices", "too many vertices: slices x stacks is " + std::to_string(int64_t(od.slices) * od.stacks) +
+                                  ", at most " + std::to_string(kMaxVertices));
         break;
       case ObstacleType::Box: positive3(od.size, p + "/size"); break;
       case ObstacleType::Plane:
@@ -781,11 +801,11 @@ void validate_scene(const SceneDef& s) {
         break;
       case ObstacleType::Mesh:
         if (od.file.empty()) fail(p + "/file", "a mesh obstacle needs an OBJ file");
-        if (!std::filesystem::exists(od.file)) fail(p + "/file", "OBJ file '" + od.file + "' does not exist");
+        if (const auto why = input_file_problem(od.file); !why.empty()) fail(p + "/file", "OBJ file '" + od.file + "' " + why);
         break;
       case ObstacleType::Skinned:
         if (od.file.empty()) fail(p + "/file", "a skinned obstacle needs a glTF file");
-        if (!std::filesystem::exists(od.file)) fail(p + "/file", "glTF file '" + od.file + "' does not exist");
+        if (const auto why = input_file_problem(od.file); !why.empty()) fail(p + "/file", "glTF file '" + od.file + "' " + why);
         if (!(std::isfinite(od.speed) && od.speed >= 0.0f))
           fail(p + "/speed", "must be a number >= 0");
         if (od.offset && !std::isfinite(*od.offset)) fail(p + "/offset", "must be finite");

@@ -9,6 +9,7 @@
 #include <filesystem>
 
 #include "scene/json_text.h"
+#include "scene/mesh.h"
 
 namespace raycloth {
 
@@ -131,13 +132,27 @@ std::vector<float> read_floats(const tinygltf::Model& m, int index, int width, c
   const int comps = tinygltf::GetNumComponentsInType(uint32_t(a.type));
   if (comps != width) fail("file", fmt::format("{}: {} components per element, expected {}", what, comps, width));
   if (a.bufferView < 0) fail("file", what + ": sparse or empty accessors are not supported");
+  if (size_t(a.bufferView) >= m.bufferViews.size()) fail("file", what + ": no such buffer view");
   const tinygltf::BufferView& v = m.bufferViews[size_t(a.bufferView)];
+  if (v.buffer < 0 || size_t(v.buffer) >= m.buffers.size()) fail("file", what + ": no such buffer");
   const tinygltf::Buffer& b = m.buffers[size_t(v.buffer)];
   const int csize = tinygltf::GetComponentSizeInBytes(uint32_t(a.componentType));
   if (csize <= 0) fail("file", what + ": unknown component type");
-  const size_t stride = v.byteStride ? v.byteStride : size_t(csize * comps);
+  switch (a.componentType) {
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: break;
+    default: fail("file", what + ": unsupported component type");
+  }
+  const size_t element = size_t(csize * comps);
+  const size_t stride = v.byteStride ? v.byteStride : element;
+  // Every figure comes from the file: compared without overflow before anything is allocated.
+  const size_t size = b.data.size();
+  if (v.byteOffset > size || a.byteOffset > size - v.byteOffset)
+    fail("file", what + ": accessor starts past the end of its buffer");
   const size_t offset = v.byteOffset + a.byteOffset;
-  if (a.count > 0 && offset + (a.count - 1) * stride + size_t(csize * comps) > b.data.size())
+  if (a.count > 0 && (element > size - offset || a.count - 1 > (size - offset - element) / stride))
     fail("file", what + ": accessor runs past the end of its buffer");
   std::vector<float> out(a.count * size_t(comps));
   for (size_t e = 0; e < a.count; ++e)
@@ -145,7 +160,10 @@ std::vector<float> read_floats(const tinygltf::Model& m, int index, int width, c
       const unsigned char* p = b.data.data() + offset + e * stride + size_t(c * csize);
       float f = 0;
       switch (a.componentType) {
-        case TINYGLTF_COMPONENT_TYPE_FLOAT: std::memcpy(&f, p, 4); break;
+        case TINYGLTF_COMPONENT_TYPE_FLOAT:
+          std::memcpy(&f, p, 4);
+          if (!std::isfinite(f)) fail("file", what + ": a value is not a finite number");
+          break;
         case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: f = float(*p) / (a.normalized ? 255.0f : 1.0f); break;
         case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
           uint16_t s;
@@ -207,14 +225,18 @@ std::vector<NodeTrs> SkinnedMesh::sample(float time, float blend, bool loop) con
 }
 
 std::vector<Affine> SkinnedMesh::joint_matrices(const std::vector<NodeTrs>& local) const {
-  // Global transforms, parents first (memoised over the node tree).
+  // Global transforms, parents first (memoised over the node tree, which the loader checked has no
+  // cycle); without recursion, so that a deep chain of nodes cannot overflow the stack.
   std::vector<Affine> global(local.size());
   std::vector<char> done(local.size(), 0);
-  std::function<const Affine&(int)> world = [&](int node) -> const Affine& {
-    if (!done[size_t(node)]) {
-      const Affine own = trs_matrix(local[size_t(node)]);
-      global[size_t(node)] = parent[size_t(node)] < 0 ? own : multiply(world(parent[size_t(node)]), own);
-      done[size_t(node)] = 1;
+  std::vector<int> chain;
+  auto world = [&](int node) -> const Affine& {
+    for (int n = node; n >= 0 && !done[size_t(n)]; n = parent[size_t(n)]) chain.push_back(n);
+    for (; !chain.empty(); chain.pop_back()) {
+      const size_t n = size_t(chain.back());
+      const Affine own = trs_matrix(local[n]);
+      global[n] = parent[n] < 0 ? own : multiply(global[size_t(parent[n])], own);
+      done[n] = 1;
     }
     return global[size_t(node)];
   };
@@ -230,8 +252,12 @@ void SkinnedMesh::skin(const std::vector<Affine>& joint_matrices, std::vector<Ve
 }
 
 SkinnedMesh load_skinned_mesh(const std::string& path, const std::string& animation, const Fail& fail) {
-  if (!std::filesystem::exists(path)) fail("file", "glTF file '" + path + "' does not exist");
+  if (const std::string why = input_file_problem(path); !why.empty()) fail("file", "glTF file '" + path + "' " + why);
   tinygltf::TinyGLTF loader;
+  // Textures are never used: their bytes are not decoded.
+  loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
+                           void*) { return true; },
+                        nullptr);
   tinygltf::Model m;
   std::string err, warn;
   const bool binary = std::filesystem::path(path).extension() == ".glb";
@@ -247,8 +273,24 @@ SkinnedMesh load_skinned_mesh(const std::string& path, const std::string& animat
   s.parent.assign(m.nodes.size(), -1);
   for (size_t n = 0; n < m.nodes.size(); ++n) {
     s.rest.push_back(node_trs(m.nodes[n]));
-    for (int c : m.nodes[n].children)
-      if (c >= 0 && size_t(c) < m.nodes.size()) s.parent[size_t(c)] = int(n);
+    for (int c : m.nodes[n].children) {
+      if (c < 0 || size_t(c) >= m.nodes.size()) fail("file", fmt::format("{}: node {} has a child {} that is not a node", in_file, n, c));
+      if (s.parent[size_t(c)] >= 0 || size_t(c) == n)
+        fail("file", fmt::format("{}: node {} is the child of more than one node", in_file, c));
+      s.parent[size_t(c)] = int(n);
+    }
+  }
+  // Each node a child of at most one: the nodes form a forest unless a chain of parents loops.
+  {
+    std::vector<char> state(m.nodes.size(), 0);  // 0 not seen, 1 on the walk now, 2 reaches a root
+    std::vector<int> walk;
+    for (size_t n = 0; n < m.nodes.size(); ++n) {
+      int p = int(n);
+      for (; p >= 0 && state[size_t(p)] == 0; p = s.parent[size_t(p)]) state[size_t(p)] = 1, walk.push_back(p);
+      if (p >= 0 && state[size_t(p)] == 1) fail("file", fmt::format("{}: node {} is its own ancestor", in_file, p));
+      for (int w : walk) state[size_t(w)] = 2;
+      walk.clear();
+    }
   }
   const tinygltf::Skin& skin = m.skins.front();
   s.joints = skin.joints;
@@ -271,6 +313,7 @@ SkinnedMesh load_skinned_mesh(const std::string& path, const std::string& animat
   // Every primitive of every node that uses the skin.
   for (const tinygltf::Node& node : m.nodes) {
     if (node.mesh < 0 || node.skin != 0) continue;
+    if (size_t(node.mesh) >= m.meshes.size()) fail("file", fmt::format("{}: node '{}' has no mesh {}", in_file, node.name, node.mesh));
     for (const tinygltf::Primitive& prim : m.meshes[size_t(node.mesh)].primitives) {
       if (prim.mode != TINYGLTF_MODE_TRIANGLES && prim.mode != -1) continue;
       const std::string what = in_file + " mesh '" + m.meshes[size_t(node.mesh)].name + "'";
@@ -305,7 +348,7 @@ SkinnedMesh load_skinned_mesh(const std::string& path, const std::string& animat
         for (int k = 0; k < 4; ++k) {
           const float j = jnt[4 * i + size_t(k)], w = wgt[4 * i + size_t(k)];
           if (!(w >= 0) || !std::isfinite(w)) fail("file", fmt::format("{}: vertex {} has a weight that is not a number >= 0", what, i));
-          if (w > 0 && (j < 0 || size_t(j) >= s.joints.size()))
+          if (w > 0 && !(j >= 0 && j < float(s.joints.size())))
             fail("file", fmt::format("{}: vertex {} uses joint {} but the skin has {} joints (0 to {})", what, i, j,
                                      s.joints.size(), s.joints.size() - 1));
           v.joint[k] = uint16_t(w > 0 ? j : 0);
@@ -320,7 +363,7 @@ SkinnedMesh load_skinned_mesh(const std::string& path, const std::string& animat
       if (prim.indices >= 0) {
         const std::vector<float> idx = read_floats(m, prim.indices, 1, what + " indices", fail);
         for (float f : idx) {
-          if (f < 0 || size_t(f) >= nv) fail("file", what + ": an index is out of range");
+          if (!(f >= 0 && f < float(nv))) fail("file", what + ": an index is out of range");
           s.indices.push_back(base + uint32_t(f));
         }
       } else {
@@ -355,17 +398,19 @@ SkinnedMesh load_skinned_mesh(const std::string& path, const std::string& animat
     else if (ch.target_path == "rotation") c.path = AnimationChannel::Path::Rotation;
     else if (ch.target_path == "scale") c.path = AnimationChannel::Path::Scale;
     else continue;  // morph target weights do not move a skinned surface here
+    const std::string what = in_file + " animation '" + anim->name + "'";
+    if (ch.sampler < 0 || size_t(ch.sampler) >= anim->samplers.size()) fail("file", what + ": a channel has no sampler");
     const tinygltf::AnimationSampler& smp = anim->samplers[size_t(ch.sampler)];
     if (smp.interpolation == "STEP") c.interpolation = AnimationChannel::Interpolation::Step;
     else if (smp.interpolation == "CUBICSPLINE") c.interpolation = AnimationChannel::Interpolation::CubicSpline;
     else c.interpolation = AnimationChannel::Interpolation::Linear;
     const int width = c.path == AnimationChannel::Path::Rotation ? 4 : 3;
-    const std::string what = in_file + " animation '" + anim->name + "'";
     c.times = read_floats(m, smp.input, 1, what + " key times", fail);
     c.values = read_floats(m, smp.output, width, what + " key values", fail);
     const size_t per_key = size_t(width) * (c.interpolation == AnimationChannel::Interpolation::CubicSpline ? 3 : 1);
     if (c.times.empty() || c.values.size() != per_key * c.times.size())
       fail("file", what + ": key times and values do not match");
+    if (!std::is_sorted(c.times.begin(), c.times.end())) fail("file", what + ": key times are not in increasing order");
     s.start = std::min(s.start, c.times.front());
     s.end = std::max(s.end, c.times.back());
     s.channels.push_back(std::move(c));

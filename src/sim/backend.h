@@ -14,6 +14,9 @@
 
 namespace raycloth {
 
+class ByteWriter;
+class ByteReader;
+
 // What a batch of steps did, summed over its steps (see StepCounters in sim/stages.h).
 struct StepResult {
   uint64_t hits = 0;           // collision-buffer entries in the last step
@@ -32,6 +35,11 @@ class Backend {
   // Runs n steps starting at step `first_step`; stops early on a blow-up (reported in the result).
   virtual StepResult step(int n, uint64_t first_step, StageTimes& times) = 0;
   virtual void download(std::vector<Vec3>& x, std::vector<Vec3>& v) = 0;
+  // Checkpoints: everything the next step reads that is not a function of the scene and the time.
+  // restore() follows construction, with `steps` steps done. Backends without them say so.
+  virtual bool can_checkpoint() const { return false; }
+  virtual void save(ByteWriter& out) { (void)out; }
+  virtual void restore(ByteReader& in, uint64_t steps) { (void)in, (void)steps; }
 };
 
 struct BackendInput {

@@ -10,6 +10,7 @@
 
 #include "collide/bvh.h"
 #include "collide/cpu/embree_collider.h"
+#include "io/checkpoint.h"
 #include "sim/backend.h"
 #include "sim/step.h"
 
@@ -72,6 +73,61 @@ class CpuBackend final : public Backend {
   void download(std::vector<Vec3>& x, std::vector<Vec3>& v) override {
     x = x_;
     v = v_;
+  }
+
+  bool can_checkpoint() const override { return true; }
+
+  void save(ByteWriter& out) override {
+    out.u64(model_.num_vertices());
+    for (const auto* v : {&x_, &v_, &x_next_, &v_next_, &contact_normal_, &x_ref_, &obstacle_x_, &obstacle_v_, &obstacle_prev_})
+      out.vec(*v);
+    out.vec(rays_);
+    out.vec(hits_);
+    out.vec(contacts_);
+    out.vec(bound_);
+    out.vec(flags_);
+    out.vec(bound_radius_);
+    out.pod(counters_);
+    out.u32(bound_age_);
+    for (const HostBvh* b : {&obstacle_bvh_, &cloth_bvh_}) {
+      out.u32(b->num_prims);
+      for (const auto* v : {&b->child, &b->parent, &b->prim, &b->counter}) out.vec(*v);
+      out.vec(b->bounds);
+      out.pod(b->built_area);
+      out.u32(b->builds);
+    }
+  }
+
+  // The Embree trees are refit every step over the topology of their first build, so that build is
+  // repeated as it happened (cloth at its initial positions; the obstacles were built at t = 0 by the
+  // constructor) before the restored positions come in with the next step's refit.
+  void restore(ByteReader& in, uint64_t steps) override {
+    const size_t n = model_.num_vertices();
+    if (in.u64() != n) in.fail("was written for a cloth of another size");
+    for (auto* v : {&x_, &v_, &x_next_, &v_next_, &contact_normal_, &x_ref_}) in.vec(*v, n, "cloth vertices");
+    const size_t no = obstacles_.world.vertices.size();
+    in.vec(obstacle_x_, no, "obstacle vertices");
+    in.vec(obstacle_v_, no, "obstacle vertices");
+    in.vec(obstacle_prev_);
+    in.vec(rays_, n, "rays");
+    in.vec(hits_, n, "hits");
+    in.vec(contacts_, n, "contacts");
+    in.vec(bound_, n, "bounds");
+    in.vec(flags_, n, "flags");
+    in.vec(bound_radius_, n, "bound radii");
+    in.pod(counters_);
+    bound_age_ = in.u32();
+    for (HostBvh* b : {&obstacle_bvh_, &cloth_bvh_}) {
+      b->num_prims = in.u32();
+      for (auto* v : {&b->child, &b->parent, &b->prim, &b->counter}) in.vec(*v);
+      in.vec(b->bounds);
+      in.pod(b->built_area);
+      b->builds = in.u32();
+    }
+    if (obstacle_bvh_.num_prims != obstacles_.world.num_triangles() || cloth_bvh_.num_prims != model_.num_triangles())
+      in.fail("was written for other meshes");
+    if (steps > 0) collider_->update_cloth(model_.initial_positions.data());
+    if (obstacles_.any_moving) collider_->update_obstacles(obstacle_x_.data());
   }
 
   // ---- The executor of sim/step.h ----

@@ -6,6 +6,7 @@
 #include <algorithm>
 
 #include "check/state_check.h"
+#include "io/checkpoint.h"
 #include "raycloth/error.h"
 #include "sim/backend.h"
 #include "sim/model.h"
@@ -114,6 +115,22 @@ void Simulator::step(int n) {
         r.bad_step, double(r.bad_step + 1) * scene_.time.dt, local, piece->name, where, x[vi].x, x[vi].y, x[vi].z));
   }
   steps_ += uint64_t(n);
+}
+
+bool Simulator::can_checkpoint() const { return backend_->can_checkpoint(); }
+
+void Simulator::save_state(ByteWriter& out) {
+  for (uint64_t v : {steps_, last_hits_, pushed_total_, clamped_total_, conflicts_total_, refreshes_total_}) out.u64(v);
+  out.pod(times_);
+  backend_->save(out);
+}
+
+void Simulator::restore_state(ByteReader& in) {
+  for (uint64_t* v : {&steps_, &last_hits_, &pushed_total_, &clamped_total_, &conflicts_total_, &refreshes_total_})
+    *v = in.u64();
+  in.pod(times_);
+  backend_->restore(in, steps_);
+  synced_ = false;
 }
 
 const std::vector<Vec3>& Simulator::positions() {
