@@ -561,6 +561,17 @@ ClothModel build_cloth_model(const SceneDef& s) {
   }
   m.alias.resize(m.num_vertices());
   for (uint32_t i = 0; i < m.num_vertices(); ++i) m.alias[i] = find_root(parent, i);
+  // A [first, last] range of a panel's vertices (pins and attachments), as global vertex ids.
+  auto range_ids = [&](const Piece& p, std::array<int, 2> range, const std::string& field) {
+    const auto [first, last] = range;
+    if (first < 0 || last < first || uint32_t(last) >= p.num_vertices())
+      throw InputError(s.source, field,
+                       "range [" + std::to_string(first) + ", " + std::to_string(last) + "] is outside panel '" + p.name +
+                           "' (vertices 0 to " + std::to_string(p.num_vertices() - 1) + ")");
+    std::vector<uint32_t> ids;
+    for (int i = first; i <= last; ++i) ids.push_back(p.first_vertex + uint32_t(i));
+    return ids;
+  };
   // Pins.
   for (size_t pi = 0; pi < s.pins.size(); ++pi) {
     const PinDef& pd = s.pins[pi];
@@ -586,12 +597,7 @@ ClothModel build_cloth_model(const SceneDef& s) {
       EdgeRef ref{pd.panel, pd.edge, pd.segment, std::nullopt};
       for (uint32_t i : panel_path(s, s.panels[panel], meshes[panel], ref, field)) ids.push_back(p.first_vertex + i);
     } else if (pd.range) {
-      const auto [first, last] = *pd.range;
-      if (first < 0 || last < first || uint32_t(last) >= p.num_vertices())
-        throw InputError(s.source, field + "/range",
-                         "range [" + std::to_string(first) + ", " + std::to_string(last) + "] is outside panel '" +
-                             p.name + "' (vertices 0 to " + std::to_string(p.num_vertices() - 1) + ")");
-      for (int i = first; i <= last; ++i) ids.push_back(p.first_vertex + uint32_t(i));
+      ids = range_ids(p, *pd.range, field + "/range");
     } else {
       throw InputError(s.source, field, "a pin needs one of corner, edge, segment or range");
     }
@@ -605,14 +611,9 @@ ClothModel build_cloth_model(const SceneDef& s) {
     const Piece& p = m.pieces[panel];
     std::vector<uint32_t> ids;
     if (ad.range) {
-      const auto [first, last] = *ad.range;
       if (!ad.edge.empty() || !ad.segment.empty())
         throw InputError(s.source, field, "needs exactly one of edge, segment or range");
-      if (first < 0 || last < first || uint32_t(last) >= p.num_vertices())
-        throw InputError(s.source, field + "/range",
-                         "range [" + std::to_string(first) + ", " + std::to_string(last) + "] is outside panel '" +
-                             p.name + "' (vertices 0 to " + std::to_string(p.num_vertices() - 1) + ")");
-      for (int i = first; i <= last; ++i) ids.push_back(p.first_vertex + uint32_t(i));
+      ids = range_ids(p, *ad.range, field + "/range");
     } else {
       EdgeRef ref{ad.panel, ad.edge, ad.segment, std::nullopt};
       for (uint32_t i : panel_path(s, s.panels[panel], meshes[panel], ref, field)) ids.push_back(p.first_vertex + i);
