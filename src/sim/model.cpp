@@ -1,5 +1,7 @@
 #include "sim/model.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -169,9 +171,7 @@ double ClothModel::stability_limit(uint32_t* vertex) const {
   double best = INFINITY;
   for (uint32_t i = 0; i < num_vertices(); ++i) {
     if (inv_mass[i] == 0.0f) continue;
-    double k = 0;
-    for (uint32_t e = adj_offset[i]; e < adj_offset[i + 1]; ++e) k += double(adj_k[e]);
-    if (!attach_slot.empty() && attach_slot[i] != kNoAttachment) k += double(attach_k[attach_slot[i]]);
+    const double k = stiffness_sum(i);
     if (k <= 0) continue;
     const double limit = 2.0 * std::sqrt(double(mass[i]) / k);
     if (limit < best) {
@@ -180,6 +180,19 @@ double ClothModel::stability_limit(uint32_t* vertex) const {
     }
   }
   return best;
+}
+
+double ClothModel::stiffness_sum(uint32_t i) const {
+  double k = 0;
+  for (uint32_t e = adj_offset[i]; e < adj_offset[i + 1]; ++e) k += double(adj_k[e]);
+  if (!attach_slot.empty() && attach_slot[i] != kNoAttachment) k += double(attach_k[attach_slot[i]]);
+  return k;
+}
+
+const Piece& ClothModel::piece_of(uint32_t i) const {
+  for (const Piece& p : pieces)
+    if (i >= p.first_vertex && i < p.first_vertex + p.num_vertices()) return p;
+  return pieces.front();
 }
 
 // Per-vertex adjacency (CSR) so that forces are gathered, never scattered.
@@ -692,6 +705,13 @@ void resolve_attachments(ClothModel& m, const ObstacleSet& obstacles, const Scen
           if (q.dist2 < best) best = q.dist2, tri = t, bary = make_vec3(float(q.wa), float(q.wb), float(q.wc));
         }
       }
+      // The damping is explicit too: past 2 m / dt it overshoots and grows.
+      const double damping_limit = 2.0 * double(m.mass[ci]) / s.time.dt;
+      if (double(ad.damping) >= damping_limit)
+        throw InputError(s.source, field + "/damping",
+                         fmt::format("{:g} N s/m is unstable at dt = {:g} s on an attached vertex of {:g} kg; "
+                                     "keep it below 2 m / dt = {:g}",
+                                     double(ad.damping), s.time.dt, double(m.mass[ci]), damping_limit));
       m.attach_slot[ci] = uint32_t(m.attach_tri.size());
       m.attach_tri.push_back(tri);
       m.attach_bary.push_back(bary);

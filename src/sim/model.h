@@ -104,6 +104,10 @@ struct ClothModel {
   // meet a light vertex (mesh boundaries, small cloths) this is stricter than the paper's T0.
   // Sets *vertex to the vertex that sets it.
   double stability_limit(uint32_t* vertex = nullptr) const;
+  // Sum of the stiffnesses of vertex i's springs and attachment: the K of stability_limit.
+  double stiffness_sum(uint32_t i) const;
+  // The panel that holds vertex i.
+  const Piece& piece_of(uint32_t i) const;
 };
 
 // Obstacles merged into one world-space mesh; moving ones keep their local mesh and motion.
@@ -130,7 +134,8 @@ void build_adjacency(ClothModel& model);
 ClothModel build_cloth_model(const SceneDef& scene);
 ObstacleSet build_obstacles(const SceneDef& scene);
 // Binds the scene's attachments to obstacle surface points (the given obstacle vertices, or the
-// nearest surface points at t = 0); throws InputError for an unknown obstacle or a bad vertex list.
+// nearest surface points at t = 0); throws InputError for an unknown obstacle, a bad vertex list or
+// a damping the explicit step cannot take (2 m / dt or more on an attached vertex).
 void resolve_attachments(ClothModel& model, const ObstacleSet& obstacles, const SceneDef& scene);
 
 }  // namespace raycloth

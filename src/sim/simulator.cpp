@@ -20,19 +20,6 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
   model_ = std::make_unique<ClothModel>(build_cloth_model(scene_));
   obstacles_ = std::make_unique<ObstacleSet>(build_obstacles(scene_));
   resolve_attachments(*model_, *obstacles_, scene_);
-  // An attachment's damping is explicit too: past 2 m / dt it overshoots and grows.
-  for (size_t k = 0; k < model_->attach_kd.size(); ++k) {
-    uint32_t vi = 0;
-    while (model_->attach_slot[vi] != uint32_t(k)) ++vi;
-    const double limit = 2.0 * double(model_->mass[vi]) / scene_.time.dt;
-    if (double(model_->attach_kd[k]) >= limit)
-      for (size_t ai = 0; ai < scene_.attachments.size(); ++ai)
-        if (scene_.attachments[ai].damping == model_->attach_kd[k])
-          throw InputError(scene_.source, "/attachments/" + std::to_string(ai) + "/damping",
-                           fmt::format("{:g} N s/m is unstable at dt = {:g} s on an attached vertex of {:g} kg; "
-                                       "keep it below 2 m / dt = {:g}",
-                                       double(model_->attach_kd[k]), scene_.time.dt, double(model_->mass[vi]), limit));
-  }
   // The displacement bound keeps apart what starts apart; it cannot undo a crossing.
   refuse_crossing_start(*model_, scene_.source);
 
@@ -49,13 +36,8 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
   uint32_t worst = 0;
   const double limit = model_->stability_limit(&worst);
   if (scene_.time.dt < t0 && scene_.time.dt >= limit) {
-    const Piece* piece = &model_->pieces.front();
-    for (const auto& p : model_->pieces)
-      if (worst >= p.first_vertex && worst < p.first_vertex + p.num_vertices()) piece = &p;
-    double k = 0;
-    for (uint32_t e = model_->adj_offset[worst]; e < model_->adj_offset[worst + 1]; ++e) k += model_->adj_k[e];
-    if (!model_->attach_slot.empty() && model_->attach_slot[worst] != kNoAttachment)
-      k += model_->attach_k[model_->attach_slot[worst]];
+    const Piece* piece = &model_->piece_of(worst);
+    const double k = model_->stiffness_sum(worst);
     const std::string why = fmt::format(
         "time step {:g} s is not below the mesh's stability limit {:g} s: vertex {} of panel '{}' has mass {:g} kg and "
         "springs summing to K = {:g} N/m, and explicit Euler needs dt < 2 sqrt(m / K); lower dt below {:g} s, or make "
@@ -102,9 +84,7 @@ void Simulator::step(int n) {
     steps_ = r.bad_step + 1;
     const std::vector<Vec3>& x = positions();
     const uint32_t vi = uint32_t(r.bad_vertex);
-    const Piece* piece = &model_->pieces.front();
-    for (const auto& p : model_->pieces)
-      if (vi >= p.first_vertex && vi < p.first_vertex + p.num_vertices()) piece = &p;
+    const Piece* piece = &model_->piece_of(vi);
     const uint32_t local = vi - piece->first_vertex;
     const std::string where = piece->resolution_u > 0 ? fmt::format(" (u {}, v {})", local % piece->resolution_u,
                                                                     local / piece->resolution_u)
