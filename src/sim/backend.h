@@ -23,7 +23,8 @@ struct StepResult {
   uint64_t pushed = 0;         // vertex-steps an obstacle at t + dt pushed out
   uint64_t clamped = 0;        // vertex-steps whose move the displacement bound shortened
   uint64_t conflicts = 0;      // vertex-steps the bound kept from leaving an obstacle completely
-  uint64_t refreshes = 0;      // steps that recomputed the displacement bound
+  uint64_t refreshes = 0;      // steps that recomputed the displacement bound of every vertex
+  uint64_t partial_refreshes = 0;  // steps that recomputed it for the vertices that needed room
   int64_t bad_vertex = -1;     // first vertex that blew up, or -1
   uint64_t bad_step = 0;       // step (counted from the start of the run) where it did
 };
@@ -35,6 +36,12 @@ class Backend {
   // Runs n steps starting at step `first_step`; stops early on a blow-up (reported in the result).
   virtual StepResult step(int n, uint64_t first_step, StageTimes& times) = 0;
   virtual void download(std::vector<Vec3>& x, std::vector<Vec3>& v) = 0;
+  // The displacement bound's balls (centre and radius per vertex), for tests of its invariant;
+  // false where the backend does not give them.
+  virtual bool download_balls(std::vector<Vec3>& centre, std::vector<float>& radius) {
+    (void)centre, (void)radius;
+    return false;
+  }
   // Checkpoints: everything the next step reads that is not a function of the scene and the time.
   // restore() follows construction, with `steps` steps done. Backends without them say so.
   virtual bool can_checkpoint() const { return false; }

@@ -60,7 +60,8 @@ class CpuBackend final : public Backend {
       result.pushed += counters_.pushed;
       result.clamped += counters_.clamped;
       result.conflicts += counters_.conflicts;
-      result.refreshes += counters_.refresh > 0 ? 1u : 0u;
+      result.refreshes += counters_.refresh == kRefreshFull ? 1u : 0u;
+      result.partial_refreshes += counters_.refresh == kRefreshPartial ? 1u : 0u;
       if (counters_.bad_vertex != 0xFFFFFFFFu) {
         result.bad_vertex = counters_.bad_vertex;
         result.bad_step = step_index;
@@ -73,6 +74,16 @@ class CpuBackend final : public Backend {
   void download(std::vector<Vec3>& x, std::vector<Vec3>& v) override {
     x = x_;
     v = v_;
+  }
+
+  bool download_balls(std::vector<Vec3>& centre, std::vector<float>& radius) override {
+    centre = x_ref_;
+    radius.resize(x_ref_.size());
+    StepView s;
+    s.bound = bound_.data();
+    s.bound_radius = bound_radius_.data();
+    for (uint32_t i = 0; i < radius.size(); ++i) radius[i] = allowance_of(s, i);
+    return true;
   }
 
   bool can_checkpoint() const override { return true; }
