@@ -77,6 +77,9 @@ TEST(Cli, DefaultSceneShortenedRunsAndEndsPenetrationFree) {
   for (const char* stage : {"forces_and_integration", "acceleration_structure_update", "ray_casting", "response"})
     EXPECT_GT(timing["stage_ms_per_step"][stage].get<double>(), 0.0) << stage;
   EXPECT_GT(timing["wall_time"].get<double>(), 0.0);
+  // Simulated seconds per wall second: the steps per second times dt.
+  EXPECT_NEAR(timing["simulated_seconds_per_wall_second"].get<double>(),
+              timing["steps_per_second"].get<double>() * 4e-4, 1e-9 * timing["steps_per_second"].get<double>());
   EXPECT_EQ(timing["frames"].size(), 14u);
   for (const char* wall_clock : {"wall_time", "steps_per_second", "stage_ms_per_step"}) EXPECT_FALSE(j.contains(wall_clock));
   EXPECT_FALSE(j["frames"][1].contains("steps_per_second"));
@@ -89,6 +92,18 @@ TEST(Cli, DefaultSceneShortenedRunsAndEndsPenetrationFree) {
   EXPECT_EQ(objects, 3);
   // Seam partners are welded into one vertex in the OBJ: 4252 simulated vertices, 51 seam pairs.
   EXPECT_EQ(normals, 4201);
+}
+
+// `bench --sizes` takes the comma-separated list the README shows; each size gets a row, and the
+// header names simulated seconds per wall second beside steps per second.
+TEST(Cli, BenchTakesACommaSeparatedListOfSizes) {
+  const fs::path dir = fresh_dir("bench");
+  const Result r = run_cli("bench --sizes 8,12 --steps 3", dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("sim s/s"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("seed_drape"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("square_8x8"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("square_12x12"), std::string::npos) << r.out;
 }
 
 TEST(Cli, BadSceneFailsWithMessageAndWritesNothing) {

@@ -70,7 +70,8 @@ Action add_bench_command(CLI::App& app) {
   auto args = std::make_shared<BenchArgs>();
   CLI::App* bench = app.add_subcommand("bench", "Measure steps per second and time per stage");
   bench->add_option("--device", args->device, "cpu, cuda or auto")->check(CLI::IsMember({"cpu", "cuda", "auto"}));
-  bench->add_option("--sizes", args->sizes, "Square cloth resolutions (n for n x n vertices)");
+  bench->add_option("--sizes", args->sizes, "Square cloth resolutions (n for n x n vertices), comma-separated")
+      ->delimiter(',');
   bench->add_option("--steps", args->steps, "Timed steps per case (default: by size)");
   bench->add_option("--threads", args->threads, "Worker threads (default: all cores)");
   return [bench, args] {
