@@ -65,8 +65,11 @@ class Simulator {
   uint64_t pushed_total() const { return pushed_total_; }
   uint64_t clamped_total() const { return clamped_total_; }
   uint64_t conflicts_total() const { return conflicts_total_; }
-  // Steps that recomputed the displacement bound (the others reuse the last one).
+  // Steps that recomputed the displacement bound of every vertex (the others reuse it, or refresh
+  // only the vertices that need more room).
   uint64_t bound_refreshes() const { return refreshes_total_; }
+  // Steps that recomputed the bound only for the vertices that needed more room.
+  uint64_t bound_partial_refreshes() const { return partial_refreshes_total_; }
   const StageTimes& stage_times() const { return times_; }
 
   // Checkpoints (io/checkpoint.h): the whole state after steps(), so that a Simulator built from the
@@ -83,6 +86,7 @@ class Simulator {
   std::vector<Vec3> x_, v_;
   bool synced_ = true;
   uint64_t steps_ = 0, last_hits_ = 0, pushed_total_ = 0, clamped_total_ = 0, conflicts_total_ = 0, refreshes_total_ = 0;
+  uint64_t partial_refreshes_total_ = 0;
   StageTimes times_;
 };
 

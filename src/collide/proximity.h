@@ -180,6 +180,29 @@ RC_HD void atomic_min_nonneg(uint32_t* slot, float value) {
 #endif
 }
 
+// *slot = max(*slot, value) for a float value >= 0 kept as its bits (bit order = value order).
+RC_HD void atomic_max_nonneg(uint32_t* slot, float value) {
+  uint32_t bits;
+  memcpy(&bits, &value, sizeof bits);
+#if defined(__CUDA_ARCH__)
+  atomicMax(slot, bits);
+#else
+  std::atomic_ref<uint32_t> a(*slot);
+  uint32_t cur = a.load(std::memory_order_relaxed);
+  while (bits > cur && !a.compare_exchange_weak(cur, bits, std::memory_order_relaxed)) {
+  }
+#endif
+}
+
+// *slot = 1 from any number of threads.
+RC_HD void atomic_store_one(uint32_t* slot) {
+#if defined(__CUDA_ARCH__)
+  atomicExch(slot, 1u);
+#else
+  std::atomic_ref<uint32_t>(*slot).store(1u, std::memory_order_relaxed);
+#endif
+}
+
 RC_HD float float_from_bits(uint32_t bits) {
   float f;
   memcpy(&f, &bits, sizeof f);

@@ -139,7 +139,8 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
   j["contact"] = {{"pushed_by_obstacles", sim.pushed_total()},
                   {"clamped_by_bound", sim.clamped_total()},
                   {"obstacle_conflicts", sim.conflicts_total()},
-                  {"bound_refreshes", sim.bound_refreshes()}};
+                  {"bound_refreshes", sim.bound_refreshes()},
+                  {"bound_partial_refreshes", sim.bound_partial_refreshes()}};
   if (r.check.enabled) {
     j["check"] = {{"method", "exact: every cloth edge against every cloth triangle sharing no vertex (CGAL filtered "
                              "exact orientation predicates); every cloth vertex against every obstacle (closed: "

@@ -23,7 +23,8 @@ struct StepResult {
   uint64_t pushed = 0;         // vertex-steps an obstacle at t + dt pushed out
   uint64_t clamped = 0;        // vertex-steps whose move the displacement bound shortened
   uint64_t conflicts = 0;      // vertex-steps the bound kept from leaving an obstacle completely
-  uint64_t refreshes = 0;      // steps that recomputed the displacement bound
+  uint64_t refreshes = 0;      // steps that recomputed the displacement bound of every vertex
+  uint64_t partial_refreshes = 0;  // steps that recomputed it for the vertices that needed room
   int64_t bad_vertex = -1;     // first vertex that blew up, or -1
   uint64_t bad_step = 0;       // step (counted from the start of the run) where it did
 };

@@ -60,7 +60,8 @@ class CpuBackend final : public Backend {
       result.pushed += counters_.pushed;
       result.clamped += counters_.clamped;
       result.conflicts += counters_.conflicts;
-      result.refreshes += counters_.refresh > 0 ? 1u : 0u;
+      result.refreshes += counters_.refresh == kRefreshFull ? 1u : 0u;
+      result.partial_refreshes += counters_.refresh == kRefreshPartial ? 1u : 0u;
       if (counters_.bad_vertex != 0xFFFFFFFFu) {
         result.bad_vertex = counters_.bad_vertex;
         result.bad_step = step_index;

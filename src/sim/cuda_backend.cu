@@ -224,7 +224,8 @@ class CudaBackend final : public Backend {
       result.pushed += c.pushed;
       result.clamped += c.clamped;
       result.conflicts += c.conflicts;
-      result.refreshes += c.refresh > 0 ? 1u : 0u;
+      result.refreshes += c.refresh == kRefreshFull ? 1u : 0u;
+      result.partial_refreshes += c.refresh == kRefreshPartial ? 1u : 0u;
       if (c.bad_vertex != 0xFFFFFFFFu) {
         result.bad_vertex = c.bad_vertex;
         result.bad_step = step_index;

@@ -80,6 +80,7 @@ void Simulator::step(int n) {
   clamped_total_ += r.clamped;
   conflicts_total_ += r.conflicts;
   refreshes_total_ += r.refreshes;
+  partial_refreshes_total_ += r.partial_refreshes;
   if (r.bad_vertex >= 0) {
     steps_ = r.bad_step + 1;
     const std::vector<Vec3>& x = positions();
@@ -104,13 +105,16 @@ bool Simulator::bound_balls(std::vector<Vec3>& centre, std::vector<float>& radiu
 }
 
 void Simulator::save_state(ByteWriter& out) {
-  for (uint64_t v : {steps_, last_hits_, pushed_total_, clamped_total_, conflicts_total_, refreshes_total_}) out.u64(v);
+  for (uint64_t v : {steps_, last_hits_, pushed_total_, clamped_total_, conflicts_total_, refreshes_total_,
+                     partial_refreshes_total_})
+    out.u64(v);
   out.pod(times_);
   backend_->save(out);
 }
 
 void Simulator::restore_state(ByteReader& in) {
-  for (uint64_t* v : {&steps_, &last_hits_, &pushed_total_, &clamped_total_, &conflicts_total_, &refreshes_total_})
+  for (uint64_t* v : {&steps_, &last_hits_, &pushed_total_, &clamped_total_, &conflicts_total_, &refreshes_total_,
+                      &partial_refreshes_total_})
     *v = in.u64();
   in.pod(times_);
   backend_->restore(in, steps_);

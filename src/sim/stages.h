@@ -59,8 +59,11 @@ struct StepCounters {
   uint32_t clamped = 0;        // vertices whose move the bound shortened
   uint32_t conflicts = 0;      // vertices the bound kept from leaving an obstacle completely
   uint32_t wants = 0;          // vertices whose proposed position left their ball
-  uint32_t wants_now = 0;      // of those, vertices whose ball no nearby feature limited
-  uint32_t refresh = 0;        // 1 when the bound was recomputed this step
+  uint32_t wants_now = 0;      // of those, vertices marked for a partial refresh (kFlagRefresh)
+  uint32_t refresh = 0;        // kRefreshNone, kRefreshPartial or kRefreshFull
+  uint32_t starved = 0;        // > 0 when a partial refresh could not give a vertex room for its move
+  uint32_t escalate = 0;       // 1 when a starved partial refresh was redone as a full one
+  uint32_t pad_max = 0;        // float bits: the largest ball radius (or target radius) on a partial refresh
   uint32_t bad_vertex = 0xFFFFFFFFu;  // smallest vertex that blew up
 };
 
@@ -96,6 +99,9 @@ inline constexpr uint32_t kFlagPushed = 1u;   // an obstacle pushed the vertex t
 inline constexpr uint32_t kFlagClamped = 2u;  // the bound shortened its move
 inline constexpr uint32_t kFlagBlowup = 4u;   // integration gave a non-finite or runaway velocity
 inline constexpr uint32_t kFlagInside = 8u;   // inside an obstacle at t + dt, or pushed hard by one
+inline constexpr uint32_t kFlagRefresh = 16u; // its ball is recomputed by this step's partial refresh
+
+inline constexpr uint32_t kRefreshNone = 0u, kRefreshPartial = 1u, kRefreshFull = 2u;
 
 
 RC_HD bool is_representative(const ModelView& m, uint32_t i) { return m.alias[i] == i; }
@@ -305,105 +311,218 @@ RC_HD uint32_t stage_wants_refresh(const StepView& s, uint32_t i) {
   const Vec3 x = s.x_next[i];
   return is_finite(x) && length(x - s.x_ref[i]) > allowance_of(s, i) ? 1u : 0u;
 }
+
 // 1 when vertex i leaves a ball that a new bound would likely widen: one that its look-ahead
 // radius set (nothing nearer was found), or one that a feature farther than kBoundNear mean edges
-// set (its own panel's neighbours in a smooth region: they move with it). Balls set by a feature
-// nearer than that (a layer lying on it, a fold) wait for the next refresh.
-// A vertex an obstacle pushed out from inside, or pushed hard, does not wait either: held in its
-// old ball it could end inside the body before the next refresh. (Vertices merely kept at the
-// thickness, cloth resting on a body, wait as before.)
+// set (its own panel's neighbours in a smooth region: they move with it). Such a vertex is marked
+// for a partial refresh. Balls set by a feature nearer than that (a layer lying on it, a fold) wait
+// for the next full refresh: the nearby feature's own ball holds the rest of their gap, so only a
+// refresh of both sides gives them room. A vertex an obstacle pushed out from inside, or pushed
+// hard, does not wait either: held in its old ball it could end inside the body before the next
+// refresh. (Vertices merely kept at the thickness, cloth resting on a body, wait as before.)
 RC_HD uint32_t stage_wants_refresh_now(const StepView& s, uint32_t i) {
   const float d = float_from_bits(s.bound[i]);
   const bool was_inside = (s.flags[i] & kFlagInside) != 0u;
-  return was_inside || d >= fminf(s.bound_radius[i], kBoundNear * s.mean_edge) ? stage_wants_refresh(s, i) : 0u;
+  if (!(was_inside || d >= fminf(s.bound_radius[i], kBoundNear * s.mean_edge)) || !stage_wants_refresh(s, i)) return 0u;
+  s.flags[i] |= kFlagRefresh;
+  return 1u;
 }
 
-// Whether this step recomputes the bound (one thread): when a vertex that moves freely needs more
-// room, when more than 1/kBoundCrowd of the vertices need more room, or when any does and the bound
-// is kBoundMaxAge steps old. Otherwise the few vertices that want more room, all held by a nearby
-// feature, stay in their balls (stage_clamp) for at most kBoundMaxAge - 1 steps.
+// Whether and how this step recomputes the bound (one thread). All vertices (a full refresh) when
+// more than 1/kBoundCrowd of them need more room, or when any does and the last full refresh is
+// kBoundMaxAge steps old. Otherwise the marked vertices (a partial refresh, stage_bound) when there
+// are any; the few vertices that want more room, all held by a nearby feature, stay in their balls
+// (stage_clamp) for at most kBoundMaxAge - 1 steps.
 RC_HD void stage_decide_refresh(const StepView& s) {
   StepCounters* c = s.counters;
   const uint32_t age = *s.bound_age + 1u;
-  c->refresh = (c->wants_now > 0u || c->wants * kBoundCrowd > s.model.num_vertices ||
-                (c->wants > 0u && age >= kBoundMaxAge))
-                   ? 1u
-                   : 0u;
-  *s.bound_age = c->refresh ? 0u : age;
+  if (c->wants * kBoundCrowd > s.model.num_vertices || (c->wants > 0u && age >= kBoundMaxAge))
+    c->refresh = kRefreshFull;
+  else if (c->wants_now > 0u)
+    c->refresh = kRefreshPartial;
+  else
+    c->refresh = kRefreshNone;
+  *s.bound_age = c->refresh == kRefreshFull ? 0u : age;
+}
+
+// The refresh that pass 0 (decided by stage_decide_refresh) or pass 1 (a starved partial refresh
+// redone as a full one, stage_escalate_refresh) runs.
+RC_HD uint32_t refresh_in_pass(const StepView& s, uint32_t pass) {
+  if (pass == 0u) return s.counters->refresh;
+  return s.counters->escalate ? kRefreshFull : kRefreshNone;
+}
+
+RC_HD bool refreshing(const StepView& s, uint32_t i) { return (s.flags[i] & kFlagRefresh) != 0u; }
+
+// During a partial refresh: how far vertex j may move from its ball's centre, at most. Its present
+// ball radius, or for a vertex being refreshed the most its new ball can get.
+RC_HD float bound_pad(const StepView& s, uint32_t j) {
+  return refreshing(s, j) ? kBoundFactor * s.bound_radius[j] : allowance_of(s, j);
 }
 
 // On a refresh: the ball's centre moves to x and the look-ahead radius follows the vertex's move.
-RC_HD void stage_bound_reset(const StepView& s, uint32_t i) {
-  if (s.counters->refresh == 0u) return;
-  s.x_ref[i] = s.x[i];
-  s.bound[i] = bits_from_float(INFINITY);
-  const float move = length(s.x_next[i] - s.x[i]);
-  const float lo = kBoundMinRadius * s.mean_edge, hi = kBoundMaxRadius * s.mean_edge;
-  const float want = is_finite(s.x_next[i]) ? kBoundLookahead * move / kBoundFactor : lo;
-  s.bound_radius[i] = fminf(hi, fmaxf(lo, want));
+// A full refresh does this for every vertex, a partial one for the marked vertices; a partial
+// refresh also finds the largest pad over the vertices of the welded surface.
+RC_HD void stage_bound_reset(const StepView& s, uint32_t i, uint32_t pass) {
+  const uint32_t mode = refresh_in_pass(s, pass);
+  if (mode == kRefreshNone) return;
+  const bool partial = mode == kRefreshPartial;
+  if (!partial || refreshing(s, i)) {
+    s.x_ref[i] = s.x[i];
+    s.bound[i] = bits_from_float(INFINITY);
+    const float move = length(s.x_next[i] - s.x[i]);
+    const float lo = kBoundMinRadius * s.mean_edge, hi = kBoundMaxRadius * s.mean_edge;
+    const float want = is_finite(s.x_next[i]) ? kBoundLookahead * move / kBoundFactor : lo;
+    s.bound_radius[i] = fminf(hi, fmaxf(lo, want));
+  }
+  if (partial && is_representative(s.model, i)) atomic_max_nonneg(&s.counters->pad_max, bound_pad(s, i));
 }
 
-// Bound (on a refresh), per triangle t: every cloth triangle t2 whose box comes within t's radius
-// (the largest look-ahead radius of its corners) is a candidate pair, and each unordered pair is
-// measured once, by the side with the larger radius (ties: the lower index), so that a pair nearer
-// than either side's radius is always measured. A pair is measured feature by feature, features
-// that share a vertex left out, each feature once over the whole mesh: a vertex against the other
-// triangle only from the triangle that owns that vertex (the lowest-numbered one holding it), an
-// edge against an edge only from the triangles owning both. Each distance bounds the vertices of
-// both features. A pair farther apart than a vertex's radius cannot limit it: its ball is
-// kBoundFactor of that radius at most.
+// After a partial refresh: 1 when a marked vertex's new ball is too small for its proposed move
+// (the balls of the features near it hold most of their gaps). A full refresh would centre those
+// balls too and give it room; without one it would be held back, losing speed at every step.
+RC_HD uint32_t stage_partial_short(const StepView& s, uint32_t i) {
+  if (s.counters->refresh != kRefreshPartial || !refreshing(s, i)) return 0u;
+  return length(s.x_next[i] - s.x_ref[i]) > allowance_of(s, i) ? 1u : 0u;
+}
+
+// A starved partial refresh (a vertex whose neighbours' balls left it no room, or less than its
+// move) is redone as a full one in the same step (one thread).
+RC_HD void stage_escalate_refresh(const StepView& s) {
+  StepCounters* c = s.counters;
+  if (c->refresh != kRefreshPartial || c->starved == 0u) return;
+  c->escalate = 1u;
+  c->refresh = kRefreshFull;
+  *s.bound_age = 0u;
+}
+
+// Bound (on a refresh), per triangle t. The invariant the bound keeps: for every pair of features
+// that share no vertex (a vertex and a triangle, two edges), the distance between them with every
+// vertex at its ball's centre exceeds the largest ball radius among the first feature's vertices
+// plus the largest among the second's. Since every point of a feature stays within its vertices'
+// largest ball radius of where it is with the vertices at the centres, two such features cannot
+// meet while every vertex stays in its ball.
+//
+// Full refresh: every cloth triangle t2 whose box comes within t's radius (the largest look-ahead
+// radius of its corners) is a candidate pair, and each unordered pair is measured once, by the side
+// with the larger radius (ties: the lower index), so that a pair nearer than either side's radius
+// is always measured. A pair is measured feature by feature, features that share a vertex left
+// out, each feature once over the whole mesh: a vertex against the other triangle only from the
+// triangle that owns that vertex (the lowest-numbered one holding it), an edge against an edge only
+// from the triangles owning both. Each distance d bounds the vertices of both features (ball radius
+// kBoundFactor d at most, so the two sides sum to 0.8 d). A pair farther apart than a vertex's
+// radius cannot limit it: its ball is kBoundFactor of that radius at most.
+//
+// Partial refresh: only triangles with a marked vertex look, within their largest pad plus twice
+// the largest pad of any vertex (the tree holds the cloth at x, at most that far from the centres);
+// a pair found from both sides is measured by the lower index. A measured pair at distance d whose
+// unmarked vertices have largest ball radii A and B (per feature) gives each of its marked vertices
+// d - (A + B) / (2 kBoundFactor) as its distance: with both sides' ball radii at most 0.8 d as
+// above, the invariant holds afterwards. When that is not positive the vertex is starved and the
+// step redoes the refresh as a full one.
 RC_HD float triangle_radius(const StepView& s, uint32_t t) {
   const uint32_t* tri = s.model.triangles + 3 * t;
   return max_of(s.bound_radius[tri[0]], max_of(s.bound_radius[tri[1]], s.bound_radius[tri[2]]));
 }
 
-RC_HD void stage_bound(const StepView& s, uint32_t t) {
-  if (s.counters->refresh == 0u) return;
+RC_HD bool triangle_refreshing(const StepView& s, uint32_t t) {
+  const uint32_t* tri = s.model.triangles + 3 * t;
+  return refreshing(s, tri[0]) || refreshing(s, tri[1]) || refreshing(s, tri[2]);
+}
+
+// Partial refresh: the distance d between two features (vertex lists a[0..na), b[0..nb)) bounds
+// their marked vertices.
+RC_HD void bound_partial_pair(const StepView& s, const uint32_t* a, int na, const uint32_t* b, int nb, double d2) {
+  float pa = 0.0f, pb = 0.0f;
+  bool any = false;
+  for (int k = 0; k < na; ++k) {
+    if (refreshing(s, a[k])) any = true;
+    else pa = fmaxf(pa, allowance_of(s, a[k]));
+  }
+  for (int k = 0; k < nb; ++k) {
+    if (refreshing(s, b[k])) any = true;
+    else pb = fmaxf(pb, allowance_of(s, b[k]));
+  }
+  if (!any) return;
+  const double room = sqrt(d2) - (double(pa) + double(pb)) / (2.0 * double(kBoundFactor));
+  if (!(room > 0.0)) {
+    atomic_store_one(&s.counters->starved);
+    return;
+  }
+  const float r = float(room);
+  for (int k = 0; k < na; ++k)
+    if (refreshing(s, a[k]) && r < s.bound_radius[a[k]]) atomic_min_nonneg(&s.bound[a[k]], r);
+  for (int k = 0; k < nb; ++k)
+    if (refreshing(s, b[k]) && r < s.bound_radius[b[k]]) atomic_min_nonneg(&s.bound[b[k]], r);
+}
+
+RC_HD void stage_bound(const StepView& s, uint32_t t, uint32_t pass) {
+  const uint32_t mode = refresh_in_pass(s, pass);
+  if (mode == kRefreshNone) return;
+  const bool partial = mode == kRefreshPartial;
+  if (partial && !triangle_refreshing(s, t)) return;
   const uint32_t* tri = s.model.triangles;
-  const Vec3* x = s.x;
+  const Vec3* x = s.x_ref;  // the balls' centres (x itself for every vertex on a full refresh)
   const uint32_t v[3] = {tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]};
   const float radius = triangle_radius(s, t);
+  // How far from t's box a feature can limit t's vertices: the radius (full), or the pads (partial).
+  float grow = radius;
+  if (partial) {
+    const float pad_t = max_of(bound_pad(s, v[0]), max_of(bound_pad(s, v[1]), bound_pad(s, v[2])));
+    grow = pad_t + 2.0f * float_from_bits(s.counters->pad_max);
+  }
   const DVec3 p[3] = {dvec(x[v[0]]), dvec(x[v[1]]), dvec(x[v[2]])};
   const uint32_t own = s.model.tri_edge_owner[t];
   const Aabb box = aabb_union(segment_box(x[v[0]], x[v[1]]), point_box(x[v[2]]));
-  Aabb query = aabb_grow(box, radius);
+  Aabb query = aabb_grow(box, grow);
   auto bound = [&](uint32_t i, double d2) {
     const float d = float(sqrt(d2));
     if (d < radius) atomic_min_nonneg(&s.bound[i], d);
   };
   bvh_for_each_overlap(s.cloth_bvh, query, [&](uint32_t t2) {
     if (t2 == t) return;
-    const float r2 = triangle_radius(s, t2);
-    if (r2 > radius || (r2 == radius && t2 < t)) return;  // measured from t2's side
+    if (partial) {
+      if (t2 < t && triangle_refreshing(s, t2)) return;  // measured from t2's side
+    } else {
+      const float r2 = triangle_radius(s, t2);
+      if (r2 > radius || (r2 == radius && t2 < t)) return;  // measured from t2's side
+    }
     const uint32_t w[3] = {tri[3 * t2], tri[3 * t2 + 1], tri[3 * t2 + 2]};
     const uint32_t own2 = s.model.tri_edge_owner[t2];
     const DVec3 q[3] = {dvec(x[w[0]]), dvec(x[w[1]]), dvec(x[w[2]])};
     const Aabb box2 = aabb_union(segment_box(x[w[0]], x[w[1]]), point_box(x[w[2]]));
-    const Aabb query2 = aabb_grow(box2, radius);
+    const Aabb query2 = aabb_grow(box2, grow);
     auto in_t = [&](uint32_t k) { return k == v[0] || k == v[1] || k == v[2]; };
     auto in_t2 = [&](uint32_t k) { return k == w[0] || k == w[1] || k == w[2]; };
     for (int k = 0; k < 3; ++k) {
       // Corner k of t against t2; corner k of t2 against t.
       if ((own & (8u << k)) && !in_t2(v[k]) && aabb_overlap(query2, point_box(x[v[k]]))) {
         const double d2 = closest_on_triangle(p[k], q[0], q[1], q[2]).dist2;
-        bound(v[k], d2), bound(w[0], d2), bound(w[1], d2), bound(w[2], d2);
+        if (partial) bound_partial_pair(s, &v[k], 1, w, 3, d2);
+        else bound(v[k], d2), bound(w[0], d2), bound(w[1], d2), bound(w[2], d2);
       }
       if ((own2 & (8u << k)) && !in_t(w[k]) && aabb_overlap(query, point_box(x[w[k]]))) {
         const double d2 = closest_on_triangle(q[k], p[0], p[1], p[2]).dist2;
-        bound(w[k], d2), bound(v[0], d2), bound(v[1], d2), bound(v[2], d2);
+        if (partial) bound_partial_pair(s, &w[k], 1, v, 3, d2);
+        else bound(w[k], d2), bound(v[0], d2), bound(v[1], d2), bound(v[2], d2);
       }
     }
     for (int k = 0; k < 3; ++k) {
       if (!(own & (1u << k))) continue;
       const uint32_t a = v[k], b = v[(k + 1) % 3];
-      const Aabb ea = aabb_grow(segment_box(x[a], x[b]), radius);
+      const Aabb ea = aabb_grow(segment_box(x[a], x[b]), grow);
       for (int l = 0; l < 3; ++l) {
         if (!(own2 & (1u << l))) continue;
         const uint32_t c = w[l], d = w[(l + 1) % 3];
         if (c == a || c == b || d == a || d == b) continue;
         if (!aabb_overlap(ea, segment_box(x[c], x[d]))) continue;
         const double d2 = segment_segment_dist2(p[k], p[(k + 1) % 3], q[l], q[(l + 1) % 3]);
-        bound(a, d2), bound(b, d2), bound(c, d2), bound(d, d2);
+        if (partial) {
+          const uint32_t e1[2] = {a, b}, e2[2] = {c, d};
+          bound_partial_pair(s, e1, 2, e2, 2, d2);
+        } else {
+          bound(a, d2), bound(b, d2), bound(c, d2), bound(d, d2);
+        }
       }
     }
   });

@@ -45,8 +45,12 @@ void run_step(Exec& ex, uint64_t step) {
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_wants_refresh_now(s, i); }, &c->wants_now);
   ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_decide_refresh(s); });
   ex.refit_cloth(c);
-  ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_bound_reset(s, i); });
-  ex.for_each(Stage::Bound, nt, [s] RC_LAMBDA(uint32_t t) { stage_bound(s, t); });
+  ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_bound_reset(s, i, 0); });
+  ex.for_each(Stage::Bound, nt, [s] RC_LAMBDA(uint32_t t) { stage_bound(s, t, 0); });
+  ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_partial_short(s, i); }, &c->starved);
+  ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_escalate_refresh(s); });
+  ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_bound_reset(s, i, 1); });
+  ex.for_each(Stage::Bound, nt, [s] RC_LAMBDA(uint32_t t) { stage_bound(s, t, 1); });
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_clamp(s, i); }, &c->clamped);
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_conflict(s, i); }, &c->conflicts);
   ex.sum(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { return (s.flags[i] & kFlagPushed) ? 1u : 0u; }, &c->pushed);
