@@ -11,16 +11,15 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <random>
 #include <string>
 #include <vector>
 
-#include <random>
-
 #include "collide/bvh.h"
 #include "fixtures.h"
-#include "sim/stages.h"
 #include "raycloth/simulator.h"
 #include "sim/model.h"
+#include "sim/step.h"
 
 using namespace raycloth;
 
@@ -108,6 +107,18 @@ Invariant check_invariant(const ClothModel& m, const std::vector<Vec3>& c, const
   return out;
 }
 
+// The executor of sim/step.h in one thread, for running the bound's refresh on its own.
+struct SerialExec {
+  template <class F>
+  void for_each(Stage, uint32_t n, F&& f) {
+    for (uint32_t i = 0; i < n; ++i) f(i);
+  }
+  template <class F, class T>
+  void sum(Stage, uint32_t n, F&& f, T* slot) {
+    for (uint32_t i = 0; i < n; ++i) *slot += f(i);
+  }
+};
+
 // Steps the scene and checks the invariant after every step; returns the first failure.
 std::string step_with_invariant(Simulator& sim, int steps, size_t* pairs) {
   std::vector<Vec3> centre;
@@ -149,10 +160,10 @@ TEST(Bound, InvariantHoldsAfterEveryStepOfAFoldingDrop) {
   EXPECT_TRUE(r.clean()) << describe(r);
 }
 
-// The refresh stages run directly, in the order of sim/step.h, on two small sheets a little apart:
-// a full refresh, then rounds of moving every vertex somewhere in its ball and refreshing a random
-// set of vertices (some next to the other sheet, whose balls are tight), each checked. Starved
-// partial refreshes are redone in full as in a step.
+// The bound's refresh (run_bound_refresh of sim/step.h, in one thread) on two small sheets a little
+// apart: a full refresh, then rounds of moving every vertex somewhere in its ball and refreshing a
+// random set of vertices (some next to the other sheet, whose balls are tight), each checked.
+// Starved partial refreshes are redone in full as in a step.
 TEST(Bound, InvariantHoldsAfterRandomPartialRefreshes) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
@@ -182,13 +193,8 @@ TEST(Bound, InvariantHoldsAfterRandomPartialRefreshes) {
       v.cloth_bvh = bvh.view();
       counters = StepCounters();
       counters.refresh = mode;
-      for (int pass = 0; pass < 2; ++pass) {
-        for (uint32_t i = 0; i < n; ++i) stage_bound_reset(v, i, pass);
-        for (uint32_t t = 0; t < nt; ++t) stage_bound(v, t, pass);
-        if (pass > 0) continue;
-        for (uint32_t i = 0; i < n; ++i) counters.starved += stage_partial_short(v, i);
-        stage_escalate_refresh(v);
-      }
+      SerialExec ex;
+      run_bound_refresh(ex, v);
       escalated += counters.escalate;
     };
     // Proposed moves of up to 4 mm at first (look-ahead radii up to 1.5 mean edges), then up to

@@ -28,6 +28,21 @@ namespace raycloth {
 
 enum class Stage { Integrate, Update, Cast, Respond, Bound };
 
+// The displacement bound's refresh, once the step has decided it (counters->refresh) and the
+// cloth's tree is at x: pass 0 as decided; a partial refresh that left a marked vertex short of
+// room is redone as a full one (pass 1). Also run on its own by the bound's tests.
+template <class Exec>
+void run_bound_refresh(Exec& ex, const StepView& s) {
+  StepCounters* c = s.counters;
+  const uint32_t n = s.model.num_vertices, nt = s.model.num_triangles;
+  ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_bound_reset(s, i, 0); });
+  ex.for_each(Stage::Bound, nt, [s] RC_LAMBDA(uint32_t t) { stage_bound(s, t, 0); });
+  ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_partial_short(s, i); }, &c->starved);
+  ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_escalate_refresh(s); });
+  ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_bound_reset(s, i, 1); });
+  ex.for_each(Stage::Bound, nt, [s] RC_LAMBDA(uint32_t t) { stage_bound(s, t, 1); });
+}
+
 template <class Exec>
 void run_step(Exec& ex, uint64_t step) {
   const StepView s = ex.begin(step);
@@ -45,12 +60,7 @@ void run_step(Exec& ex, uint64_t step) {
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_wants_refresh_now(s, i); }, &c->wants_now);
   ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_decide_refresh(s); });
   ex.refit_cloth(c);
-  ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_bound_reset(s, i, 0); });
-  ex.for_each(Stage::Bound, nt, [s] RC_LAMBDA(uint32_t t) { stage_bound(s, t, 0); });
-  ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_partial_short(s, i); }, &c->starved);
-  ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_escalate_refresh(s); });
-  ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_bound_reset(s, i, 1); });
-  ex.for_each(Stage::Bound, nt, [s] RC_LAMBDA(uint32_t t) { stage_bound(s, t, 1); });
+  run_bound_refresh(ex, s);
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_clamp(s, i); }, &c->clamped);
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_conflict(s, i); }, &c->conflicts);
   ex.sum(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { return (s.flags[i] & kFlagPushed) ? 1u : 0u; }, &c->pushed);
