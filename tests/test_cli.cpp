@@ -104,6 +104,14 @@ TEST(Cli, BenchTakesACommaSeparatedListOfSizes) {
   EXPECT_NE(r.out.find("seed_drape"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("square_8x8"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("square_12x12"), std::string::npos) << r.out;
+  // A size that makes no cloth, or a negative step count, is refused before anything runs.
+  Result bad = run_cli("bench --sizes 8,1", dir);
+  EXPECT_NE(bad.code, 0);
+  EXPECT_EQ(bad.err, "--sizes: Value 1 not in range 2 to 2048\nRun with --help for more information.\n");
+  EXPECT_EQ(bad.out, "");
+  bad = run_cli("bench --steps -3", dir);
+  EXPECT_NE(bad.code, 0);
+  EXPECT_EQ(bad.err, "--steps: Value -3 not in range 0 to 1000000000\nRun with --help for more information.\n");
 }
 
 TEST(Cli, BadSceneFailsWithMessageAndWritesNothing) {

@@ -71,8 +71,9 @@ Action add_bench_command(CLI::App& app) {
   CLI::App* bench = app.add_subcommand("bench", "Measure steps per second and time per stage");
   bench->add_option("--device", args->device, "cpu, cuda or auto")->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   bench->add_option("--sizes", args->sizes, "Square cloth resolutions (n for n x n vertices), comma-separated")
-      ->delimiter(',');
-  bench->add_option("--steps", args->steps, "Timed steps per case (default: by size)");
+      ->delimiter(',')
+      ->check(CLI::Range(2, 2048));
+  bench->add_option("--steps", args->steps, "Timed steps per case (default: by size)")->check(CLI::Range(0, 1000000000));
   bench->add_option("--threads", args->threads, "Worker threads (default: all cores)");
   return [bench, args] {
     if (!bench->parsed()) return 0;
