@@ -28,7 +28,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -39,6 +38,7 @@
 
 #include "check/exact_check.h"
 #include "check/state_check.h"
+#include "io/atomic_file.h"
 #include "raycloth/error.h"
 #include "raycloth/scene.h"
 #include "raycloth/simulator.h"
@@ -299,9 +299,10 @@ int main(int argc, char** argv) {
   bool skip_self = false;
   app.add_option("--scene", scene_file, "Scene file (one rectangular panel over one uv_sphere)");
   app.add_option("--json", json_file, "Also write the results as JSON to this file");
-  app.add_option("--bullet-dt", bo.dt, "Bullet's time step, seconds");
-  app.add_option("--piterations", bo.piterations, "Bullet's position solver iterations");
-  app.add_option("--clusters", bo.clusters, "Bullet's clusters for self-collision (0: one per triangle)");
+  app.add_option("--bullet-dt", bo.dt, "Bullet's time step, seconds")->check(CLI::Range(1e-5, 0.05));
+  app.add_option("--piterations", bo.piterations, "Bullet's position solver iterations")->check(CLI::Range(1, 1000));
+  app.add_option("--clusters", bo.clusters, "Bullet's clusters for self-collision (0: one per triangle)")
+      ->check(CLI::Range(0, 1000000));
   app.add_flag("--no-bullet-self", skip_self, "Skip Bullet with self-collision");
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::warn);
@@ -341,9 +342,8 @@ int main(int argc, char** argv) {
     if (!json_file.empty()) {
       nlohmann::json out = {{"scene", scene_file}, {"runs", nlohmann::json::array()}, {"raycloth_over", ratios}};
       for (const Result& r : results) out["runs"].push_back(to_json(r));
-      std::ofstream f(json_file);
-      f << out.dump(2) << "\n";
-      if (!f) throw std::runtime_error("cannot write " + json_file);
+      // Whole or not at all: a failed write names the file and leaves no partial JSON behind.
+      write_file_atomically(json_file, [&](std::ostream& f) { f << out.dump(2) << "\n"; });
     }
   } catch (const std::exception& e) {
     std::cerr << "raycloth_vs_bullet: " << e.what() << "\n";
