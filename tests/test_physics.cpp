@@ -96,13 +96,16 @@ TEST(Physics, UndampedEnergyStaysBoundedAtAStableStep) {
   double scale = 0;
   for (size_t i = 0; i < sim.model().mass.size(); ++i) scale += sim.model().mass[i] * 9.81 * 0.42;
   double worst = 0;
+  float lowest = 1.0f;  // of the free edge's first vertex (the last row; the bottom row is pinned)
+  const size_t free_vertex = sim.positions().size() - 15;
   for (int k = 0; k < 3000; ++k) {
     sim.step(1);
+    lowest = std::min(lowest, sim.positions()[free_vertex].y);
     if (k % 50 == 0)
       worst = std::max(worst, std::abs(total_energy(sim.model(), sim.positions(), sim.velocities(), 9.81) - e0));
   }
   EXPECT_LT(worst, 0.05 * scale);
-  EXPECT_LT(sim.positions().front().y, 1.0f + 1e-6f);  // it did swing down
+  EXPECT_LT(lowest, 1.0f - 0.3f);  // it did swing down: the free edge fell most of the panel's 0.42 m
 }
 
 TEST(Physics, StabilityCheckRefusesTimeStepAtOrAboveT0) {

@@ -24,8 +24,9 @@ struct StageTimes {
   double update = 0;     // acceleration-structure refit
   double cast = 0;       // collision rays
   double respond = 0;    // collision response
+  double contact = 0;    // the two-sided contact solve (cloth pairs, rounds, obstacles again)
   double bound = 0;      // displacement bound: proximity queries and the clamp
-  double total() const { return integrate + update + cast + respond + bound; }
+  double total() const { return integrate + update + cast + respond + contact + bound; }
 };
 
 class Backend;
@@ -65,11 +66,19 @@ class Simulator {
   uint64_t pushed_total() const { return pushed_total_; }
   uint64_t clamped_total() const { return clamped_total_; }
   uint64_t conflicts_total() const { return conflicts_total_; }
+  // Summed over all steps: vertices whose push out of an obstacle the bound shortened (most stay
+  // outside: the push goes to the thickness beyond the surface).
+  uint64_t push_clamped_total() const { return push_clamped_total_; }
   // Steps that recomputed the displacement bound of every vertex (the others reuse it, or refresh
   // only the vertices that need more room).
   uint64_t bound_refreshes() const { return refreshes_total_; }
   // Steps that recomputed the bound only for the vertices that needed more room.
   uint64_t bound_partial_refreshes() const { return partial_refreshes_total_; }
+  // The two-sided contact solve, summed over all steps: cloth vertex-triangle pairs found within the
+  // thickness, vertices it moved, and its position rounds that acted.
+  uint64_t contact_pairs() const { return contact_pairs_total_; }
+  uint64_t contact_moved() const { return contact_moved_total_; }
+  uint64_t contact_rounds() const { return contact_rounds_total_; }
   const StageTimes& stage_times() const { return times_; }
 
   // Checkpoints (io/checkpoint.h): the whole state after steps(), so that a Simulator built from the
@@ -86,7 +95,8 @@ class Simulator {
   std::vector<Vec3> x_, v_;
   bool synced_ = true;
   uint64_t steps_ = 0, last_hits_ = 0, pushed_total_ = 0, clamped_total_ = 0, conflicts_total_ = 0, refreshes_total_ = 0;
-  uint64_t partial_refreshes_total_ = 0;
+  uint64_t partial_refreshes_total_ = 0, contact_pairs_total_ = 0, contact_moved_total_ = 0, contact_rounds_total_ = 0;
+  uint64_t push_clamped_total_ = 0;
   StageTimes times_;
 };
 

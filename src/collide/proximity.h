@@ -203,6 +203,47 @@ RC_HD void atomic_store_one(uint32_t* slot) {
 #endif
 }
 
+// Sums of float vectors in fixed point (1 unit = 2^-40, about 1e-12): integer addition is
+// associative, so the sum is the same in every thread order (a float atomic add is not), and the
+// step stays deterministic on both backends. Values are clamped to +-1e6 (no overflow).
+struct FixedVec3 {
+  long long x = 0, y = 0, z = 0;
+};
+
+inline constexpr double kFixedScale = 1099511627776.0;  // 2^40
+
+RC_HD long long to_fixed(float v) {
+  const double d = double(v);
+  const double c = d > 1e6 ? 1e6 : (d < -1e6 ? -1e6 : d);
+  return c == c ? (long long)(c * kFixedScale) : 0;
+}
+
+RC_HD void atomic_add_fixed(FixedVec3* slot, Vec3 v) {
+  const long long a[3] = {to_fixed(v.x), to_fixed(v.y), to_fixed(v.z)};
+  long long* out[3] = {&slot->x, &slot->y, &slot->z};
+  for (int k = 0; k < 3; ++k) {
+    if (a[k] == 0) continue;
+#if defined(__CUDA_ARCH__)
+    atomicAdd(reinterpret_cast<unsigned long long*>(out[k]), static_cast<unsigned long long>(a[k]));
+#else
+    std::atomic_ref<long long>(*out[k]).fetch_add(a[k], std::memory_order_relaxed);
+#endif
+  }
+}
+
+// *slot += 1; returns the value before.
+RC_HD uint32_t atomic_fetch_add_one(uint32_t* slot) {
+#if defined(__CUDA_ARCH__)
+  return atomicAdd(slot, 1u);
+#else
+  return std::atomic_ref<uint32_t>(*slot).fetch_add(1u, std::memory_order_relaxed);
+#endif
+}
+
+RC_HD Vec3 from_fixed(const FixedVec3& f) {
+  return make_vec3(float(double(f.x) / kFixedScale), float(double(f.y) / kFixedScale), float(double(f.z) / kFixedScale));
+}
+
 RC_HD float float_from_bits(uint32_t bits) {
   float f;
   memcpy(&f, &bits, sizeof f);

@@ -139,8 +139,12 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
   j["contact"] = {{"pushed_by_obstacles", sim.pushed_total()},
                   {"clamped_by_bound", sim.clamped_total()},
                   {"obstacle_conflicts", sim.conflicts_total()},
+                  {"push_shortened_by_bound", sim.push_clamped_total()},
                   {"bound_refreshes", sim.bound_refreshes()},
-                  {"bound_partial_refreshes", sim.bound_partial_refreshes()}};
+                  {"bound_partial_refreshes", sim.bound_partial_refreshes()},
+                  {"cloth_contact_pairs", sim.contact_pairs()},
+                  {"moved_by_contact_solve", sim.contact_moved()},
+                  {"contact_solve_rounds", sim.contact_rounds()}};
   if (r.check.enabled) {
     j["check"] = {{"method", "exact: every cloth edge against every cloth triangle sharing no vertex (CGAL filtered "
                              "exact orientation predicates); every cloth vertex against every obstacle (closed: "
@@ -173,6 +177,7 @@ nlohmann::json timing_json(const RunReport& r) {
                             {"acceleration_structure_update", r.stages.update * per},
                             {"ray_casting", r.stages.cast * per},
                             {"response", r.stages.respond * per},
+                            {"contact_solve", r.stages.contact * per},
                             {"displacement_bound", r.stages.bound * per}};
   nlohmann::json frames = nlohmann::json::array();
   for (const auto& f : r.frames) frames.push_back({{"index", f.index}, {"steps_per_second", f.steps_per_second}});

@@ -17,18 +17,6 @@ namespace raycloth {
 class ByteWriter;
 class ByteReader;
 
-// What a batch of steps did, summed over its steps (see StepCounters in sim/stages.h).
-struct StepResult {
-  uint64_t hits = 0;           // collision-buffer entries in the last step
-  uint64_t pushed = 0;         // vertex-steps an obstacle at t + dt pushed out
-  uint64_t clamped = 0;        // vertex-steps whose move the displacement bound shortened
-  uint64_t conflicts = 0;      // vertex-steps the bound kept from leaving an obstacle completely
-  uint64_t refreshes = 0;      // steps that recomputed the displacement bound of every vertex
-  uint64_t partial_refreshes = 0;  // steps that recomputed it for the vertices that needed room
-  int64_t bad_vertex = -1;     // first vertex that blew up, or -1
-  uint64_t bad_step = 0;       // step (counted from the start of the run) where it did
-};
-
 class Backend {
  public:
   virtual ~Backend() = default;

@@ -38,6 +38,15 @@ class CpuBackend final : public Backend {
     bound_radius_.assign(n, 0.0f);
     x_ref_ = x_;
     flags_.assign(n, 0u);
+    pairs_.resize(size_t(n) * kVertexPairs + size_t(model_.num_edges()) * kEdgePairs);
+    pair_list_.resize(pairs_.size());
+    push_.assign(n, FixedVec3());
+    push_count_.assign(n, 0u);
+    clearance_.assign(n, 0.0f);
+    contact_shift_.assign(n, 0.0f);
+    x_goal_.assign(n, make_vec3(0, 0, 0));
+    v_goal_ = x_goal_;
+    x_mid_ = x_goal_;
     obstacles_.pose_at(0.0, obstacle_x_, obstacle_v_);
     collider_->set_obstacles(obstacle_x_.data(), obstacle_x_.size(), obstacles_.world.indices.data(),
                              obstacles_.world.num_triangles(), obstacles_.any_moving);
@@ -52,23 +61,7 @@ class CpuBackend final : public Backend {
 
   StepResult step(int n, uint64_t first_step, StageTimes& times) override {
     times_ = &times;
-    StepResult result;
-    for (int k = 0; k < n; ++k) {
-      const uint64_t step_index = first_step + uint64_t(k);
-      run_step(*this, step_index);
-      result.hits = counters_.hits;
-      result.pushed += counters_.pushed;
-      result.clamped += counters_.clamped;
-      result.conflicts += counters_.conflicts;
-      result.refreshes += counters_.refresh == kRefreshFull ? 1u : 0u;
-      result.partial_refreshes += counters_.refresh == kRefreshPartial ? 1u : 0u;
-      if (counters_.bad_vertex != 0xFFFFFFFFu) {
-        result.bad_vertex = counters_.bad_vertex;
-        result.bad_step = step_index;
-        return result;
-      }
-    }
-    return result;
+    return run_steps(*this, n, first_step);
   }
 
   void download(std::vector<Vec3>& x, std::vector<Vec3>& v) override {
@@ -156,6 +149,9 @@ class CpuBackend final : public Backend {
                   uint32_t(obstacles_.world.num_triangles()));
     }
     collider_->update_cloth(x_.data());
+    // The cloth's proximity tree at x: where a body moves, the contact solve looks for pairs in it
+    // every step; otherwise only the bound's refreshes need it (refit_cloth).
+    if (obstacles_.any_moving) refit_cloth_tree();
     counters_ = StepCounters();
     StepView s = view(step);
     add_time(Stage::Update, t);
@@ -205,15 +201,32 @@ class CpuBackend final : public Backend {
   }
 
   // The step's view of cloth_bvh_ was taken in begin(); a rebuild keeps the same array sizes (the
-  // triangle count never changes), so its pointers stay valid.
+  // triangle count never changes), so its pointers stay valid. Where a body moves the tree was
+  // refit at x in begin(), for the contact solve.
   void refit_cloth(const StepCounters* c) {
-    if (c->refresh == 0u) return;
+    if (c->refresh == 0u || obstacles_.any_moving) return;
     const auto t = Clock::now();
+    refit_cloth_tree();
+    add_time(Stage::Update, t);
+  }
+
+  // A further pass of the bound: the tree at the pass's start (and back at x for the next step).
+  void refit_cloth_at(const Vec3* x, const StepCounters* c) {
+    if (!c->pass_active) return;
+    const auto t = Clock::now();
+    refit_bvh(cloth_bvh_, x, model_.collision_triangles.data());
+    add_time(Stage::Update, t);
+  }
+
+  void refit_cloth_tree() {
     refit_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data());
     if (bvh_needs_rebuild(bvh_area(cloth_bvh_.view()), cloth_bvh_.built_area))
       build_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data(), model_.num_triangles());
-    add_time(Stage::Update, t);
   }
+
+  uint32_t peek(const uint32_t* slot, uint32_t) const { return *slot; }
+
+  const StepCounters& counters() const { return counters_; }
 
   void end() {
     std::swap(x_, x_next_);
@@ -228,6 +241,7 @@ class CpuBackend final : public Backend {
       case Stage::Update: times_->update += s; break;
       case Stage::Cast: times_->cast += s; break;
       case Stage::Respond: times_->respond += s; break;
+      case Stage::Contact: times_->contact += s; break;
       case Stage::Bound: times_->bound += s; break;
     }
   }
@@ -255,6 +269,16 @@ class CpuBackend final : public Backend {
     s.bound_age = &bound_age_;
     s.mean_edge = model_.mean_edge;
     s.flags = flags_.data();
+    s.pairs = pairs_.data();
+    s.pair_list = pair_list_.data();
+    s.clearance = clearance_.data();
+    s.contact_shift = contact_shift_.data();
+    s.x_goal = x_goal_.data();
+    s.v_goal = v_goal_.data();
+    s.x_mid = x_mid_.data();
+    s.push = push_.data();
+    s.push_count = push_count_.data();
+    s.cloth_contact = scene_.collision.cloth_cloth;
     s.obstacle_bvh = obstacle_bvh_.view();
     s.cloth_bvh = cloth_bvh_.view();
     s.obstacle_reach = obstacle_reach();
@@ -282,6 +306,12 @@ class CpuBackend final : public Backend {
   std::vector<Contact> contacts_;
   std::vector<uint32_t> bound_, flags_;
   std::vector<float> bound_radius_;
+  std::vector<ContactPair> pairs_;
+  std::vector<uint32_t> pair_list_;
+  std::vector<float> clearance_, contact_shift_;
+  std::vector<Vec3> x_goal_, v_goal_, x_mid_;
+  std::vector<FixedVec3> push_;
+  std::vector<uint32_t> push_count_;
   HostBvh obstacle_bvh_, cloth_bvh_;
   StepCounters counters_;
   uint32_t bound_age_ = 0;

@@ -213,25 +213,7 @@ class CudaBackend final : public Backend {
     if (obstacles_.any_moving) upload_poses(n, first_step);
     call_first_ = first_step;
     const auto t = std::chrono::steady_clock::now();
-    for (int k = 0; k < n; ++k) {
-      const uint64_t step_index = first_step + uint64_t(k);
-      run_step(*this, step_index);
-      CUDA_CHECK(cudaMemcpyAsync(counters_host_, counters_.data(), sizeof(StepCounters), cudaMemcpyDeviceToHost,
-                                 stream_));
-      CUDA_CHECK(cudaStreamSynchronize(stream_));
-      const StepCounters& c = *counters_host_;
-      result.hits = c.hits;
-      result.pushed += c.pushed;
-      result.clamped += c.clamped;
-      result.conflicts += c.conflicts;
-      result.refreshes += c.refresh == kRefreshFull ? 1u : 0u;
-      result.partial_refreshes += c.refresh == kRefreshPartial ? 1u : 0u;
-      if (c.bad_vertex != 0xFFFFFFFFu) {
-        result.bad_vertex = c.bad_vertex;
-        result.bad_step = step_index;
-        break;
-      }
-    }
+    result = run_steps(*this, n, first_step);
     // Stages overlap on the device; their sum is reported under integrate.
     times.integrate += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     return result;
@@ -311,6 +293,22 @@ class CudaBackend final : public Backend {
   // more to do when the bound is recomputed (the flag lives in device memory).
   void refit_cloth(const StepCounters*) {}
 
+  // The counters stay on the device inside a step: every loop runs, and its kernels read them.
+  uint32_t peek(const uint32_t*, uint32_t unknown) const { return unknown; }
+
+  // The step's counters, copied back after it (pinned memory): the only transfer per step.
+  const StepCounters& counters() {
+    CUDA_CHECK(cudaMemcpyAsync(counters_host_, counters_.data(), sizeof(StepCounters), cudaMemcpyDeviceToHost, stream_));
+    CUDA_CHECK(cudaStreamSynchronize(stream_));
+    return *counters_host_;
+  }
+
+  // A further pass of the bound: the tree refit at the pass's start. Run whether or not the pass is
+  // active (the flag is on the device); the next step's begin() refits it at x again.
+  void refit_cloth_at(const Vec3* x, const StepCounters*) {
+    if (cloth_.num_prims() > 0) cloth_.refit(x, cloth_indices_.data(), stream_);
+  }
+
   void end() { cur_ ^= 1; }
 
  private:
@@ -367,6 +365,15 @@ class CudaBackend final : public Backend {
     x_ref_ = DeviceBuffer<Vec3>(m.initial_positions);
     bound_age_ = DeviceBuffer<uint32_t>(std::vector<uint32_t>(1, 0u));
     flags_ = DeviceBuffer<uint32_t>(std::vector<uint32_t>(n, 0u));
+    pairs_.resize(size_t(n) * kVertexPairs + size_t(model_.num_edges()) * kEdgePairs);
+    pair_list_.resize(pairs_.size());
+    clearance_.resize(n);
+    contact_shift_.resize(n);
+    x_goal_.resize(n);
+    v_goal_.resize(n);
+    x_mid_.resize(n);
+    push_ = DeviceBuffer<FixedVec3>(std::vector<FixedVec3>(n));
+    push_count_ = DeviceBuffer<uint32_t>(std::vector<uint32_t>(n, 0u));
     counters_ = DeviceBuffer<StepCounters>(std::vector<StepCounters>(1));
 
     std::vector<Vec3> ox, ov;
@@ -475,6 +482,16 @@ class CudaBackend final : public Backend {
     s.bound_age = bound_age_.data();
     s.mean_edge = model_.mean_edge;
     s.flags = flags_.data();
+    s.pairs = pairs_.data();
+    s.pair_list = pair_list_.data();
+    s.clearance = clearance_.data();
+    s.contact_shift = contact_shift_.data();
+    s.x_goal = x_goal_.data();
+    s.v_goal = v_goal_.data();
+    s.x_mid = x_mid_.data();
+    s.push = push_.data();
+    s.push_count = push_count_.data();
+    s.cloth_contact = scene_.collision.cloth_cloth;
     s.obstacle_bvh = obstacle_tree_.view();
     s.cloth_bvh = cloth_.view();
     s.obstacle_reach = step_reach_;
@@ -521,6 +538,12 @@ class CudaBackend final : public Backend {
   DeviceBuffer<uint32_t> bound_, flags_, bound_age_;
   DeviceBuffer<float> bound_radius_;
   DeviceBuffer<Vec3> x_ref_;
+  DeviceBuffer<ContactPair> pairs_;
+  DeviceBuffer<uint32_t> pair_list_;
+  DeviceBuffer<float> clearance_, contact_shift_;
+  DeviceBuffer<Vec3> x_goal_, v_goal_, x_mid_;
+  DeviceBuffer<FixedVec3> push_;
+  DeviceBuffer<uint32_t> push_count_;
   DeviceBuffer<StepCounters> counters_;
   DeviceBuffer<Vec3> obstacle_x_, obstacle_v_;
   DeviceBuffer<uint32_t> obstacle_indices_;

@@ -79,8 +79,12 @@ void Simulator::step(int n) {
   pushed_total_ += r.pushed;
   clamped_total_ += r.clamped;
   conflicts_total_ += r.conflicts;
+  push_clamped_total_ += r.push_clamped;
   refreshes_total_ += r.refreshes;
   partial_refreshes_total_ += r.partial_refreshes;
+  contact_pairs_total_ += r.contact_pairs;
+  contact_moved_total_ += r.contact_moved;
+  contact_rounds_total_ += r.contact_rounds;
   if (r.bad_vertex >= 0) {
     steps_ = r.bad_step + 1;
     const std::vector<Vec3>& x = positions();
@@ -106,7 +110,8 @@ bool Simulator::bound_balls(std::vector<Vec3>& centre, std::vector<float>& radiu
 
 void Simulator::save_state(ByteWriter& out) {
   for (uint64_t v : {steps_, last_hits_, pushed_total_, clamped_total_, conflicts_total_, refreshes_total_,
-                     partial_refreshes_total_})
+                     partial_refreshes_total_, contact_pairs_total_, contact_moved_total_, contact_rounds_total_,
+                     push_clamped_total_})
     out.u64(v);
   out.pod(times_);
   backend_->save(out);
@@ -114,7 +119,8 @@ void Simulator::save_state(ByteWriter& out) {
 
 void Simulator::restore_state(ByteReader& in) {
   for (uint64_t* v : {&steps_, &last_hits_, &pushed_total_, &clamped_total_, &conflicts_total_, &refreshes_total_,
-                      &partial_refreshes_total_})
+                      &partial_refreshes_total_, &contact_pairs_total_, &contact_moved_total_, &contact_rounds_total_,
+                      &push_clamped_total_})
     *v = in.u64();
   in.pod(times_);
   backend_->restore(in, steps_);

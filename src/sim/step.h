@@ -8,6 +8,8 @@
 //   first(stage, n, f, slot)       *slot = min(*slot, smallest i with f(i) false)
 //   cast(rays, n, hits)            nearest hit per ray against obstacles and cloth
 //   refit_cloth(counters)          the cloth's proximity tree at x, needed when counters->refresh > 0
+//   peek(slot, unknown)            *slot where the host can read it for free (CPU), else `unknown`
+//                                  (GPU): lets the CPU skip loops that would do nothing
 //   end()                          x, v <- x_next, v_next
 //
 // The CPU executor runs oneTBB loops and casts with Embree (or the host BVH in tests); the CUDA
@@ -16,6 +18,8 @@
 #pragma once
 #include <cstdint>
 
+#include "sim/contact.h"
+#include "sim/bound.h"
 #include "sim/stages.h"
 
 #if defined(__CUDACC__)
@@ -26,7 +30,7 @@
 
 namespace raycloth {
 
-enum class Stage { Integrate, Update, Cast, Respond, Bound };
+enum class Stage { Integrate, Update, Cast, Respond, Contact, Bound };
 
 // The displacement bound's refresh, once the step has decided it (counters->refresh) and the
 // cloth's tree is at x: pass 0 as decided; a partial refresh that left a marked vertex short of
@@ -43,6 +47,53 @@ void run_bound_refresh(Exec& ex, const StepView& s) {
   ex.for_each(Stage::Bound, nt, [s] RC_LAMBDA(uint32_t t) { stage_bound(s, t, 1); });
 }
 
+// The two-sided contact solve (sim/contact.h): pairs found once, then rounds on positions (each
+// followed by the obstacles) until one finds nothing to do, then one round on velocities.
+template <class Exec>
+void run_contact_solve(Exec& ex, const StepView& s) {
+  StepCounters* c = s.counters;
+  const uint32_t n = s.model.num_vertices;
+  // Where no body moves, nothing pushes one layer of cloth into the next but the cloth itself, and
+  // the paper's one-sided response with the bound keeps it clean (every static scene is checked
+  // exactly): the pair search, which would double the default scene's step, is left out.
+  if (!(s.obstacle_reach > 0.0f)) return;
+  ex.for_each(Stage::Contact, n, [s] RC_LAMBDA(uint32_t i) { stage_contact_reach(s, i); });
+  const uint32_t slots = contact_slots(s.model);
+  ex.for_each(Stage::Contact, n, [s] RC_LAMBDA(uint32_t i) { stage_contact_find_vertex(s, i); });
+  ex.for_each(Stage::Contact, s.model.num_edges, [s] RC_LAMBDA(uint32_t e) { stage_contact_find_edge(s, e); });
+  // The rounds go over the listed pairs: their number where the host knows it, else every slot.
+  const uint32_t listed = ex.peek(&c->contact_pairs, slots);
+  if (listed == 0u) return;
+  for (uint32_t round = 0; round < kContactRounds && ex.peek(&c->contact_done, 0u) == 0u; ++round) {
+    ex.sum(Stage::Contact, listed, [s] RC_LAMBDA(uint32_t k) { return stage_contact_push(s, k, 0u); }, &c->contact_active);
+    ex.for_each(Stage::Contact, n, [s] RC_LAMBDA(uint32_t i) { stage_contact_apply(s, i, 0u); });
+    ex.for_each(Stage::Contact, 1, [s] RC_LAMBDA(uint32_t) { stage_contact_round_end(s); });
+  }
+  ex.for_each(Stage::Contact, 1, [s] RC_LAMBDA(uint32_t) { stage_contact_velocity_begin(s); });
+  ex.sum(Stage::Contact, listed, [s] RC_LAMBDA(uint32_t k) { return stage_contact_push(s, k, 1u); }, &c->contact_active);
+  ex.for_each(Stage::Contact, n, [s] RC_LAMBDA(uint32_t i) { stage_contact_apply(s, i, 1u); });
+  ex.sum(Stage::Contact, n, [s] RC_LAMBDA(uint32_t i) { return (s.flags[i] & kFlagContact) ? 1u : 0u; }, &c->contact_moved);
+}
+
+// Further passes of the bound after the first clamp, while a pushed vertex is held back (see
+// kBoundPasses in sim/stages.h): each a full refresh at where the last clamp left the cloth, then
+// the clamp along the rest of the move.
+template <class Exec>
+void run_bound_passes(Exec& ex, const StepView& s) {
+  StepCounters* c = s.counters;
+  const uint32_t n = s.model.num_vertices;
+  if (!(s.obstacle_reach > 0.0f)) return;  // only a moving body pushes faster than the bound allows
+  StepView m = s;
+  m.x = s.x_mid;
+  for (uint32_t pass = 1; pass < kBoundPasses && ex.peek(&c->held, 1u) > 0u; ++pass) {
+    ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_bound_pass_begin(s); });
+    ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_bound_pass_move(s, i); });
+    ex.refit_cloth_at(s.x_mid, c);
+    run_bound_refresh(ex, m);
+    ex.sum(Stage::Bound, n, [s, m] RC_LAMBDA(uint32_t i) { return stage_bound_pass_clamp(s, m, i); }, &c->held);
+  }
+}
+
 template <class Exec>
 void run_step(Exec& ex, uint64_t step) {
   const StepView s = ex.begin(step);
@@ -55,18 +106,43 @@ void run_step(Exec& ex, uint64_t step) {
   ex.cast(s.rays, n, s.hits);
   ex.sum(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { return stage_respond_contact(s, i); }, &c->hits);
   ex.for_each(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { stage_obstacles(s, i); });
+  run_contact_solve(ex, s);
 
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_wants_refresh(s, i); }, &c->wants);
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_wants_refresh_now(s, i); }, &c->wants_now);
   ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_decide_refresh(s); });
   ex.refit_cloth(c);
   run_bound_refresh(ex, s);
+  ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_save_goal(s, i); });
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_clamp(s, i); }, &c->clamped);
+  ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_held(s, i); }, &c->held);
+  run_bound_passes(ex, s);
+  ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_push_clamped(s, i); }, &c->push_clamped);
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_conflict(s, i); }, &c->conflicts);
   ex.sum(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { return (s.flags[i] & kFlagPushed) ? 1u : 0u; }, &c->pushed);
 
   ex.first(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { return stage_finish(s, i); }, &c->bad_vertex);
   ex.end();
+}
+
+// n steps from step `first_step`, stopping after one that blew up: the loop, the counters and the
+// blow-up stop, the same for every backend. counters() gives the step's counters on the host (the
+// GPU copies them back: the only transfer per step).
+template <class Exec>
+StepResult run_steps(Exec& ex, int n, uint64_t first_step) {
+  StepResult result;
+  for (int k = 0; k < n; ++k) {
+    const uint64_t step_index = first_step + uint64_t(k);
+    run_step(ex, step_index);
+    const StepCounters& c = ex.counters();
+    add_step(result, c);
+    if (c.bad_vertex != 0xFFFFFFFFu) {
+      result.bad_vertex = c.bad_vertex;
+      result.bad_step = step_index;
+      break;
+    }
+  }
+  return result;
 }
 
 }  // namespace raycloth

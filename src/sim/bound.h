@@ -1,0 +1,360 @@
+// The displacement bound: what keeps cloth from ever crossing cloth (docs/collision.md, step 5).
+// Every free vertex lives in a ball around where it was at the last refresh, of radius kBoundFactor
+// of its distance then to the nearest cloth feature it shares no vertex with; the clamp keeps it
+// there, so two features that were apart cannot meet. Here: the constants, the decision to refresh
+// (none, partial, full), the refresh itself (per triangle, on the cloth's LBVH), the clamp, and the
+// further passes of a step whose pushed vertices the clamp held back. The sequence is in sim/step.h.
+#pragma once
+#include <cstdint>
+
+#include "sim/stages.h"
+
+namespace raycloth {
+
+// The share of the distance to the nearest non-adjacent feature that a vertex may move in one step.
+// Two features each move at most this share, so below 1/2 they cannot meet; 0.4 leaves 20 % of the
+// gap for rounding (distances are computed in double from the float positions).
+inline constexpr float kBoundFactor = 0.4f;
+// Absolute slack taken off every bound (metres): covers float rounding of the new position.
+inline constexpr float kBoundSlack = 1e-6f;
+// On a refresh each vertex looks for features within kBoundLookahead of its current move (scaled
+// by 1/kBoundFactor), at least kBoundMinRadius and at most kBoundMaxRadius mean cloth edges: a
+// bound that lasts this many steps at the present speed before the next refresh.
+inline constexpr float kBoundLookahead = 8.0f;
+inline constexpr float kBoundMinRadius = 0.05f;
+inline constexpr float kBoundMaxRadius = 1.5f;
+inline constexpr uint32_t kBoundMaxAge = 8;
+inline constexpr uint32_t kBoundCrowd = 16;
+inline constexpr float kBoundNear = 0.25f;
+
+// The radius of vertex i's ball: kBoundFactor of the nearest non-adjacent distance at x_ref (or of
+// the radius it was looked for within, when nothing was nearer), less the slack.
+RC_HD float allowance_of(const StepView& s, uint32_t i) {
+  return fmaxf(0.0f, kBoundFactor * fminf(float_from_bits(s.bound[i]), s.bound_radius[i]) - kBoundSlack);
+}
+
+RC_HD bool is_free(const StepView& s, uint32_t i) {
+  return is_representative(s.model, i) && s.model.inv_mass[i] != 0.0f;
+}
+
+// 1 when vertex i's proposed position leaves its ball.
+RC_HD uint32_t stage_wants_refresh(const StepView& s, uint32_t i) {
+  if (!is_free(s, i)) return 0u;
+  const Vec3 x = s.x_next[i];
+  return is_finite(x) && length(x - s.x_ref[i]) > allowance_of(s, i) ? 1u : 0u;
+}
+
+// 1 when vertex i leaves a ball that a new bound would likely widen: one that its look-ahead
+// radius set (nothing nearer was found), or one that a feature farther than kBoundNear mean edges
+// set (its own panel's neighbours in a smooth region: they move with it). Such a vertex is marked
+// for a partial refresh. Balls set by a feature nearer than that (a layer lying on it, a fold) wait
+// for the next full refresh: the nearby feature's own ball holds the rest of their gap, so only a
+// refresh of both sides gives them room. A vertex an obstacle pushed out from inside, or pushed
+// hard, does not wait either: held in its old ball it could end inside the body before the next
+// refresh. (Vertices merely kept at the thickness, cloth resting on a body, wait as before.)
+RC_HD uint32_t stage_wants_refresh_now(const StepView& s, uint32_t i) {
+  const float d = float_from_bits(s.bound[i]);
+  // Pushed by a body, or by cloth a body pushed (the contact solve): held in its old ball it would
+  // stop the push from going through the layers.
+  const bool was_inside = (s.flags[i] & (kFlagInside | kFlagContact)) != 0u;
+  if (!(was_inside || d >= fminf(s.bound_radius[i], kBoundNear * s.mean_edge)) || !stage_wants_refresh(s, i)) return 0u;
+  s.flags[i] |= kFlagRefresh;
+  return 1u;
+}
+
+// Whether and how this step recomputes the bound (one thread). All vertices (a full refresh) when
+// more than 1/kBoundCrowd of them need more room, or when any does and the last full refresh is
+// kBoundMaxAge steps old. Otherwise the marked vertices (a partial refresh, stage_bound) when there
+// are any; the few vertices that want more room, all held by a nearby feature, stay in their balls
+// (stage_clamp) for at most kBoundMaxAge - 1 steps.
+RC_HD void stage_decide_refresh(const StepView& s) {
+  StepCounters* c = s.counters;
+  const uint32_t age = *s.bound_age + 1u;
+  if (c->wants * kBoundCrowd > s.model.num_vertices || (c->wants > 0u && age >= kBoundMaxAge))
+    c->refresh = kRefreshFull;
+  else if (c->wants_now > 0u)
+    c->refresh = kRefreshPartial;
+  else
+    c->refresh = kRefreshNone;
+  c->refresh_made = c->refresh;
+  *s.bound_age = c->refresh == kRefreshFull ? 0u : age;
+}
+
+// The refresh that pass 0 (decided by stage_decide_refresh) or pass 1 (a starved partial refresh
+// redone as a full one, stage_escalate_refresh) runs.
+RC_HD uint32_t refresh_in_pass(const StepView& s, uint32_t pass) {
+  if (pass == 0u) return s.counters->refresh;
+  return s.counters->escalate ? kRefreshFull : kRefreshNone;
+}
+
+RC_HD bool refreshing(const StepView& s, uint32_t i) { return (s.flags[i] & kFlagRefresh) != 0u; }
+
+// During a partial refresh: how far vertex j may move from its ball's centre, at most. Its present
+// ball radius, or for a vertex being refreshed the most its new ball can get.
+RC_HD float bound_pad(const StepView& s, uint32_t j) {
+  return refreshing(s, j) ? kBoundFactor * s.bound_radius[j] : allowance_of(s, j);
+}
+
+// On a refresh: the ball's centre moves to x and the look-ahead radius follows the vertex's move.
+// A full refresh does this for every vertex, a partial one for the marked vertices; a partial
+// refresh also finds the largest pad over the vertices of the welded surface.
+RC_HD void stage_bound_reset(const StepView& s, uint32_t i, uint32_t pass) {
+  const uint32_t mode = refresh_in_pass(s, pass);
+  if (mode == kRefreshNone) return;
+  const bool partial = mode == kRefreshPartial;
+  if (!partial || refreshing(s, i)) {
+    s.x_ref[i] = s.x[i];
+    s.bound[i] = bits_from_float(INFINITY);
+    const float move = length(s.x_next[i] - s.x[i]);
+    const float lo = kBoundMinRadius * s.mean_edge, hi = kBoundMaxRadius * s.mean_edge;
+    const float want = is_finite(s.x_next[i]) ? kBoundLookahead * move / kBoundFactor : lo;
+    s.bound_radius[i] = fminf(hi, fmaxf(lo, want));
+  }
+  if (partial && is_representative(s.model, i)) atomic_max_nonneg(&s.counters->pad_max, bound_pad(s, i));
+}
+
+// After a partial refresh: 1 when a marked vertex's new ball is too small for its proposed move
+// (the balls of the features near it hold most of their gaps). A full refresh would centre those
+// balls too and give it room; without one it would be held back, losing speed at every step.
+RC_HD uint32_t stage_partial_short(const StepView& s, uint32_t i) {
+  if (s.counters->refresh != kRefreshPartial || !refreshing(s, i)) return 0u;
+  return length(s.x_next[i] - s.x_ref[i]) > allowance_of(s, i) ? 1u : 0u;
+}
+
+// A starved partial refresh (a vertex whose neighbours' balls left it no room, or less than its
+// move) is redone as a full one in the same step (one thread).
+RC_HD void stage_escalate_refresh(const StepView& s) {
+  StepCounters* c = s.counters;
+  if (c->refresh != kRefreshPartial || c->starved == 0u) return;
+  c->escalate = 1u;
+  c->refresh = kRefreshFull;
+  c->refresh_made = kRefreshFull;
+  *s.bound_age = 0u;
+}
+
+// Bound (on a refresh), per triangle t. The invariant the bound keeps: for every pair of features
+// that share no vertex (a vertex and a triangle, two edges), the distance between them with every
+// vertex at its ball's centre exceeds the largest ball radius among the first feature's vertices
+// plus the largest among the second's. Since every point of a feature stays within its vertices'
+// largest ball radius of where it is with the vertices at the centres, two such features cannot
+// meet while every vertex stays in its ball.
+//
+// Full refresh: every cloth triangle t2 whose box comes within t's radius (the largest look-ahead
+// radius of its corners) is a candidate pair, and each unordered pair is measured once, by the side
+// with the larger radius (ties: the lower index), so that a pair nearer than either side's radius
+// is always measured. A pair is measured feature by feature, features that share a vertex left
+// out, each feature once over the whole mesh: a vertex against the other triangle only from the
+// triangle that owns that vertex (the lowest-numbered one holding it), an edge against an edge only
+// from the triangles owning both. Each distance d bounds the vertices of both features (ball radius
+// kBoundFactor d at most, so the two sides sum to 0.8 d). A pair farther apart than a vertex's
+// radius cannot limit it: its ball is kBoundFactor of that radius at most.
+//
+// Partial refresh: only triangles with a marked vertex look, within their largest pad plus twice
+// the largest pad of any vertex (the tree holds the cloth at x, at most that far from the centres);
+// a pair found from both sides is measured by the lower index. A measured pair at distance d whose
+// unmarked vertices have largest ball radii A and B (per feature) gives each of its marked vertices
+// d - (A + B) / (2 kBoundFactor) as its distance: with both sides' ball radii at most 0.8 d as
+// above, the invariant holds afterwards. When that is not positive the vertex is starved and the
+// step redoes the refresh as a full one.
+RC_HD float triangle_radius(const StepView& s, uint32_t t) {
+  const uint32_t* tri = s.model.triangles + 3 * t;
+  return max_of(s.bound_radius[tri[0]], max_of(s.bound_radius[tri[1]], s.bound_radius[tri[2]]));
+}
+
+RC_HD bool triangle_refreshing(const StepView& s, uint32_t t) {
+  const uint32_t* tri = s.model.triangles + 3 * t;
+  return refreshing(s, tri[0]) || refreshing(s, tri[1]) || refreshing(s, tri[2]);
+}
+
+// Partial refresh: the distance d between two features (vertex lists a[0..na), b[0..nb)) bounds
+// their marked vertices.
+RC_HD void bound_partial_pair(const StepView& s, const uint32_t* a, int na, const uint32_t* b, int nb, double d2) {
+  float pa = 0.0f, pb = 0.0f;
+  bool any = false;
+  for (int k = 0; k < na; ++k) {
+    if (refreshing(s, a[k])) any = true;
+    else pa = fmaxf(pa, allowance_of(s, a[k]));
+  }
+  for (int k = 0; k < nb; ++k) {
+    if (refreshing(s, b[k])) any = true;
+    else pb = fmaxf(pb, allowance_of(s, b[k]));
+  }
+  if (!any) return;
+  const double room = sqrt(d2) - (double(pa) + double(pb)) / (2.0 * double(kBoundFactor));
+  if (!(room > 0.0)) {
+    atomic_store_one(&s.counters->starved);
+    return;
+  }
+  const float r = float(room);
+  for (int k = 0; k < na; ++k)
+    if (refreshing(s, a[k]) && r < s.bound_radius[a[k]]) atomic_min_nonneg(&s.bound[a[k]], r);
+  for (int k = 0; k < nb; ++k)
+    if (refreshing(s, b[k]) && r < s.bound_radius[b[k]]) atomic_min_nonneg(&s.bound[b[k]], r);
+}
+
+RC_HD void stage_bound(const StepView& s, uint32_t t, uint32_t pass) {
+  const uint32_t mode = refresh_in_pass(s, pass);
+  if (mode == kRefreshNone) return;
+  const bool partial = mode == kRefreshPartial;
+  if (partial && !triangle_refreshing(s, t)) return;
+  const uint32_t* tri = s.model.triangles;
+  const Vec3* x = s.x_ref;  // the balls' centres (x itself for every vertex on a full refresh)
+  const uint32_t v[3] = {tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]};
+  const float radius = triangle_radius(s, t);
+  // How far from t's box a feature can limit t's vertices: the radius (full), or the pads (partial).
+  float grow = radius;
+  if (partial) {
+    const float pad_t = max_of(bound_pad(s, v[0]), max_of(bound_pad(s, v[1]), bound_pad(s, v[2])));
+    grow = pad_t + 2.0f * float_from_bits(s.counters->pad_max);
+  }
+  const DVec3 p[3] = {dvec(x[v[0]]), dvec(x[v[1]]), dvec(x[v[2]])};
+  const uint32_t own = s.model.tri_edge_owner[t];
+  const Aabb box = aabb_union(segment_box(x[v[0]], x[v[1]]), point_box(x[v[2]]));
+  Aabb query = aabb_grow(box, grow);
+  auto bound = [&](uint32_t i, double d2) {
+    const float d = float(sqrt(d2));
+    if (d < radius) atomic_min_nonneg(&s.bound[i], d);
+  };
+  bvh_for_each_overlap(s.cloth_bvh, query, [&](uint32_t t2) {
+    if (t2 == t) return;
+    if (partial) {
+      if (t2 < t && triangle_refreshing(s, t2)) return;  // measured from t2's side
+    } else {
+      const float r2 = triangle_radius(s, t2);
+      if (r2 > radius || (r2 == radius && t2 < t)) return;  // measured from t2's side
+    }
+    const uint32_t w[3] = {tri[3 * t2], tri[3 * t2 + 1], tri[3 * t2 + 2]};
+    const uint32_t own2 = s.model.tri_edge_owner[t2];
+    const DVec3 q[3] = {dvec(x[w[0]]), dvec(x[w[1]]), dvec(x[w[2]])};
+    const Aabb box2 = aabb_union(segment_box(x[w[0]], x[w[1]]), point_box(x[w[2]]));
+    const Aabb query2 = aabb_grow(box2, grow);
+    auto in_t = [&](uint32_t k) { return k == v[0] || k == v[1] || k == v[2]; };
+    auto in_t2 = [&](uint32_t k) { return k == w[0] || k == w[1] || k == w[2]; };
+    for (int k = 0; k < 3; ++k) {
+      // Corner k of t against t2; corner k of t2 against t.
+      if ((own & (8u << k)) && !in_t2(v[k]) && aabb_overlap(query2, point_box(x[v[k]]))) {
+        const double d2 = closest_on_triangle(p[k], q[0], q[1], q[2]).dist2;
+        if (partial) bound_partial_pair(s, &v[k], 1, w, 3, d2);
+        else bound(v[k], d2), bound(w[0], d2), bound(w[1], d2), bound(w[2], d2);
+      }
+      if ((own2 & (8u << k)) && !in_t(w[k]) && aabb_overlap(query, point_box(x[w[k]]))) {
+        const double d2 = closest_on_triangle(q[k], p[0], p[1], p[2]).dist2;
+        if (partial) bound_partial_pair(s, &w[k], 1, v, 3, d2);
+        else bound(w[k], d2), bound(v[0], d2), bound(v[1], d2), bound(v[2], d2);
+      }
+    }
+    for (int k = 0; k < 3; ++k) {
+      if (!(own & (1u << k))) continue;
+      const uint32_t a = v[k], b = v[(k + 1) % 3];
+      const Aabb ea = aabb_grow(segment_box(x[a], x[b]), grow);
+      for (int l = 0; l < 3; ++l) {
+        if (!(own2 & (1u << l))) continue;
+        const uint32_t c = w[l], d = w[(l + 1) % 3];
+        if (c == a || c == b || d == a || d == b) continue;
+        if (!aabb_overlap(ea, segment_box(x[c], x[d]))) continue;
+        const double d2 = segment_segment_dist2(p[k], p[(k + 1) % 3], q[l], q[(l + 1) % 3]);
+        if (partial) {
+          const uint32_t e1[2] = {a, b}, e2[2] = {c, d};
+          bound_partial_pair(s, e1, 2, e2, 2, d2);
+        } else {
+          bound(a, d2), bound(b, d2), bound(c, d2), bound(d, d2);
+        }
+      }
+    }
+  });
+}
+
+// Clamp: the vertex stays inside its ball. Along its own move from x it goes as far as the ball
+// allows; its velocity shrinks in proportion. Returns 1 when it shortened the move.
+RC_HD uint32_t stage_clamp(const StepView& s, uint32_t i) {
+  if (!is_free(s, i)) return 0u;
+  const float allowed = allowance_of(s, i);
+  if (!(length(s.x_next[i] - s.x_ref[i]) > allowed)) return 0u;
+  // Largest k in [0, 1] with |x + k m - x_ref| <= allowed, in double.
+  const DVec3 p = dvec(s.x[i]) - dvec(s.x_ref[i]), m = dvec(s.x_next[i]) - dvec(s.x[i]);
+  const double mm = ddot(m, m), pm = ddot(p, m), a = double(allowed);
+  const double disc = pm * pm - mm * (ddot(p, p) - a * a);
+  double k = mm > 0.0 && disc > 0.0 ? (-pm + sqrt(disc)) / mm : 0.0;
+  k = k < 0.0 ? 0.0 : (k > 1.0 ? 1.0 : k);
+  const Vec3 move = s.x_next[i] - s.x[i];
+  s.x_next[i] = s.x[i] + move * float(k);
+  s.v_next[i] *= float(k);
+  s.flags[i] |= kFlagClamped;
+  return 1u;
+}
+
+// ---- Further passes of the bound (sim/step.h, run_bound_passes) ----------------------------------
+// The bound is absolute: a vertex moves at most kBoundFactor of its distance to the nearest feature
+// per refresh, even where a body pushes two layers (or the two sides of a fold) together and their
+// distance does not change. Where a vertex an obstacle or the contact solve pushed was held back by
+// its ball (`held`), the step goes on from where the clamp left every vertex: the balls are
+// recomputed there (a full refresh at x_mid) and every vertex goes on along its move toward its goal
+// (its position before the first clamp) as far as its new ball allows. Each pass keeps the
+// invariant, so the guarantee stands; layers moving together gain kBoundFactor of their gap per pass.
+inline constexpr uint32_t kBoundPasses = 4;
+
+// 1 when vertex i was pushed (by an obstacle or by the contact solve) and is clamped.
+RC_HD uint32_t stage_held(const StepView& s, uint32_t i) {
+  return (s.flags[i] & kFlagClamped) && (s.flags[i] & (kFlagPushed | kFlagContact)) ? 1u : 0u;
+}
+
+// Before the first clamp: every vertex's goal (position and velocity).
+RC_HD void stage_save_goal(const StepView& s, uint32_t i) {
+  s.x_goal[i] = s.x_next[i];
+  s.v_goal[i] = s.v_next[i];
+}
+
+// One thread: another pass runs only if the last one held a pushed vertex back.
+RC_HD void stage_bound_pass_begin(const StepView& s) {
+  StepCounters* c = s.counters;
+  c->pass_active = c->held > 0u ? 1u : 0u;
+  c->held = 0u;
+  c->escalate = 0u;
+  if (!c->pass_active) {
+    c->refresh = kRefreshNone;  // the pass's stages (which run on the GPU all the same) do nothing
+    return;
+  }
+  c->refresh = kRefreshFull;
+  *s.bound_age = 0u;
+  ++c->bound_passes;
+}
+
+// Every vertex starts the pass where the last clamp left it, aiming at its goal again.
+RC_HD void stage_bound_pass_move(const StepView& s, uint32_t i) {
+  if (!s.counters->pass_active) return;
+  s.x_mid[i] = s.x_next[i];
+  if (is_free(s, i)) s.x_next[i] = s.x_goal[i];
+}
+
+// The clamp of a further pass (m: the step's view with x = x_mid): along the rest of its move. The
+// velocity is the goal's, shortened as much as the whole move from x was. Returns 1 when it held
+// back a pushed vertex again.
+RC_HD uint32_t stage_bound_pass_clamp(const StepView& s, const StepView& m, uint32_t i) {
+  if (!s.counters->pass_active || !is_free(s, i)) return 0u;
+  s.flags[i] &= ~kFlagClamped;
+  const uint32_t clamped = stage_clamp(m, i);
+  const double want = sqrt(ddot(dvec(s.x_goal[i]) - dvec(s.x[i]), dvec(s.x_goal[i]) - dvec(s.x[i])));
+  const double got = sqrt(ddot(dvec(s.x_next[i]) - dvec(s.x[i]), dvec(s.x_next[i]) - dvec(s.x[i])));
+  s.v_next[i] = s.v_goal[i] * float(want > 0.0 ? (got < want ? got / want : 1.0) : 1.0);
+  if (clamped) s.flags[i] |= kFlagClamped;
+  return stage_held(s, i);
+}
+
+// A vertex an obstacle pushed out and the bound then held back: 1 when it shortened the push.
+RC_HD uint32_t stage_push_clamped(const StepView& s, uint32_t i) {
+  return (s.flags[i] & (kFlagPushed | kFlagClamped)) == (kFlagPushed | kFlagClamped) ? 1u : 0u;
+}
+
+// Of those, a vertex the bound left inside the obstacle (behind the face nearest to it): cloth on
+// both sides of it left no room (a pinch, or a push faster than the bound allows). Counted, and
+// reported by the run as obstacle_conflicts.
+RC_HD uint32_t stage_conflict(const StepView& s, uint32_t i) {
+  if (!stage_push_clamped(s, i)) return 0u;
+  const Vec3 xn = s.x_next[i];
+  const ObstaclePoint q = nearest_obstacle_point(s, xn, s.coll.thickness + length(xn - s.x[i]) + s.obstacle_reach);
+  if (!q.found) return 0u;
+  const Vec3 face = triangle_normal(s.geom.obstacle_vertices, s.geom.obstacle_indices, q.prim);
+  return ddot(dvec(xn) - q.point, dvec(face)) < 0.0 ? 1u : 0u;
+}
+
+}  // namespace raycloth
