@@ -1,5 +1,6 @@
 // Pinches in the exact check (a cloth vertex inside the body where the body's own surfaces are
-// closer than twice the cloth thickness: not clean, not a failure), in run.json and the exit codes.
+// closer than twice the cloth thickness: not clean, not a failure), and the refusal of a start with
+// cloth vertices already inside an obstacle.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,6 +14,8 @@
 #include "check/state_check.h"
 #include "fixtures.h"
 #include "io/obj_writer.h"
+#include "raycloth/error.h"
+#include "raycloth/simulator.h"
 #include "sim/model.h"
 
 using namespace raycloth;
@@ -112,6 +115,37 @@ TEST(Pinch, VertexUnderAnOuterLayerIsAFailureNotAPinch) {
   EXPECT_EQ(r.first_inside[1].obstacle, "coat");
   EXPECT_TRUE(std::isinf(r.first_inside[0].gap)) << r.first_inside[0].gap;
   EXPECT_TRUE(std::isinf(r.first_inside[1].gap)) << r.first_inside[1].gap;
+}
+
+// ---- The start check -----------------------------------------------------------------------------
+
+// A sheet placed through the middle of a box: 9 of its 25 vertices strictly inside, the deepest (its
+// centre) 0.075 m under the box's top; the way out is up, plus the 2 mm thickness.
+TEST(StartInside, SheetThroughABoxIsRefusedNamingPanelObstacleCountDepthAndMove) {
+  SceneDef s = test::panel_scene(5, 0.4f, 0.5f);
+  s.source = "through.json";
+  PanelDef clear = s.panels[0];
+  clear.name = "clear";
+  clear.transform.position = {2, 0.5f, 0};
+  s.panels.insert(s.panels.begin(), clear);  // panel 0 is clear of the box, panel 1 goes through it
+  s.obstacles.push_back(test::box_obstacle({0.25f, 0.25f, 0.25f}, {0, 0.45f, 0}));
+  try {
+    Simulator sim(s);
+    FAIL() << "a start with cloth inside a box was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "through.json");
+    EXPECT_EQ(e.field(), "/panels/1");
+    EXPECT_EQ(std::string(e.what()),
+              "through.json: /panels/1: panel 'cloth' starts with 9 vertices inside obstacle 'box' (the deepest 0.075 m "
+              "below its surface); move the panel out of it, e.g. by (0, 0.077, 0)");
+  }
+}
+
+// Within the thickness is not inside: a sheet 1 mm above the box's top starts.
+TEST(StartInside, SheetWithinTheThicknessOfABoxStarts) {
+  SceneDef s = test::panel_scene(5, 0.4f, 0.576f);
+  s.obstacles.push_back(test::box_obstacle({0.25f, 0.25f, 0.25f}, {0, 0.45f, 0}));  // top at 0.575
+  EXPECT_NO_THROW(Simulator sim(s));
 }
 
 // ---- The command line ----------------------------------------------------------------------------

@@ -20,6 +20,12 @@ CheckMesh obstacle_check_mesh(const ObstacleSet& obstacles, const std::vector<Ve
 // already has an edge through a triangle.
 void refuse_crossing_start(const ClothModel& model, const std::string& scene_file);
 
+// Throws InputError(scene file, "/panels/<index>", ...) when cloth vertices start strictly inside an
+// obstacle posed at t = 0 (the check's inside test; within the thickness is not inside): the first
+// panel (in the scene's order) with such vertices, the obstacle, their count, the depth of the
+// deepest one and a move that takes it out (its way to the surface plus the thickness).
+void refuse_inside_start(const ClothModel& model, const ObstacleSet& obstacles, const SceneDef& scene);
+
 // An output folder as `raycloth run` writes it: frames/cloth_NNNN.obj, obstacles.obj and, for
 // moving obstacles, frames/obstacles_NNNN.obj.
 struct FolderFrameCheck {
