@@ -83,14 +83,22 @@ RunArgs args_from_checkpoint(const std::string& dir) {
     throw InputError(file, "", "does not say how the run was started; resume with `raycloth run ... --resume`");
   }
 }
+std::string pinch_note(const RunCheck& c) {
+  if (c.pinched_frames == 0) return "";
+  return fmt::format("; {} frames pinched only (at most {} cloth vertices inside the body where its own gap is below "
+                     "twice the thickness, body gap {:.3g} mm at the least); first, frame {}: {}",
+                     c.pinched_frames, c.max_vertices_pinched, 1e3 * c.min_pinch_gap, c.first_pinched_frame,
+                     c.first_pinch);
+}
+
 std::string check_line(const RunCheck& c) {
   if (!c.enabled) return "exact check: off (--no-check)";
   if (c.bad_frames == 0)
-    return fmt::format("exact check of all {} frames: 0 cloth edges through cloth, 0 cloth vertices inside obstacles",
-                       c.frames_checked);
-  return fmt::format("exact check: {} of {} frames FAIL (at most {} crossings, {} vertices inside); first, frame {}: {}",
+    return fmt::format("exact check of all {} frames: 0 cloth edges through cloth, 0 cloth vertices inside obstacles{}",
+                       c.frames_checked, pinch_note(c));
+  return fmt::format("exact check: {} of {} frames FAIL (at most {} crossings, {} vertices inside); first, frame {}: {}{}",
                      c.bad_frames, c.frames_checked, c.max_crossings, c.max_vertices_inside, c.first_bad_frame,
-                     c.first_problem);
+                     c.first_problem, pinch_note(c));
 }
 
 // `raycloth run` (and `raycloth resume`, with the arguments kept in the checkpoint).
@@ -140,13 +148,24 @@ int run_command(const RunArgs& args) {
     if (render) std::cout << fmt::format("wrote {}/images/frame_*.png ({} frames)\n", args.out, r.frames.size());
   }
   const int video_code = video ? assemble_video(args.out, int(r.frames.size()), scene.time.fps, args.quiet) : 0;
-  // Penetration is an error, not a note: everything is written, and the exit code says so.
+  // Penetration is an error, not a note: everything is written, and the exit code says so (1; 3 when
+  // the only problems are pinches).
   if (r.check.bad_frames > 0) {
     std::cerr << fmt::format(
         "raycloth: error: {}: the exact check found penetration in {} of {} frames (first, frame {}: {}); the "
         "frames and run.json are written\n",
         args.out, r.check.bad_frames, r.check.frames_checked, r.check.first_bad_frame, r.check.first_problem);
     return 1;
+  }
+  // Only pinches: not a failure, not clean either; a code of its own.
+  if (r.check.pinched_frames > 0) {
+    std::cerr << fmt::format(
+        "raycloth: pinched: {}: the only problems are pinches, in {} of {} frames (cloth vertices inside the body where "
+        "its own surfaces are closer than twice the cloth thickness, body gap {:.3g} mm at the least; first, frame {}: "
+        "{}); the frames and run.json are written (exit status 3)\n",
+        args.out, r.check.pinched_frames, r.check.frames_checked, 1e3 * r.check.min_pinch_gap,
+        r.check.first_pinched_frame, r.check.first_pinch);
+    return 3;
   }
   return video_code;
 }

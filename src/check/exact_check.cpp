@@ -1,5 +1,8 @@
 #include "check/exact_check.h"
 
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
+#include <CGAL/AABB_triangle_primitive.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
@@ -14,6 +17,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <mutex>
 
 namespace raycloth {
@@ -156,7 +160,72 @@ void check_cloth_crossings(const CheckMesh& cloth, CheckReport& report) {
   report.crossings += crossings;
 }
 
-void check_vertices_inside(const CheckMesh& cloth, const CheckMesh& obstacles, CheckReport& report) {
+namespace {
+
+using Triangle = K::Triangle_3;
+using TriangleIt = std::vector<Triangle>::const_iterator;
+using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, CGAL::AABB_triangle_primitive<K, TriangleIt>>>;
+
+DPoint sub(const DPoint& a, const DPoint& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+double dot(const DPoint& a, const DPoint& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+DPoint cross(const DPoint& a, const DPoint& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+DPoint dpoint(const Point& p) { return DPoint{p.x(), p.y(), p.z()}; }
+
+// The obstacles' faces for distance and ray queries: the non-degenerate triangles, each with its
+// unit normal turned so that its obstacle as a whole winds outwards (the sign of the obstacle's
+// signed volume about its box's centre; for an open body, its dominant winding), and the range of
+// each group in them.
+struct Surfaces {
+  std::vector<Triangle> triangles;
+  std::vector<DPoint> normals;
+  std::vector<std::pair<size_t, size_t>> group_triangles;  // per group, into triangles: [first, last)
+  explicit Surfaces(const CheckMesh& m) {
+    const size_t groups = std::max<size_t>(1, m.group_first_triangle.size());
+    for (size_t g = 0; g < groups; ++g) {
+      const auto [first, last] = group_range(m, g);
+      double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+      for (uint32_t t = first; t < last; ++t)
+        for (int k = 0; k < 3; ++k)
+          for (int d = 0; d < 3; ++d) {
+            const double c = coord(m.vertices[m.triangles[3 * t + k]], d);
+            lo[d] = std::min(lo[d], c), hi[d] = std::max(hi[d], c);
+          }
+      const DPoint o{0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])};
+      double volume = 0;
+      const size_t begin = triangles.size();
+      for (uint32_t t = first; t < last; ++t) {
+        DPoint v[3];
+        for (int k = 0; k < 3; ++k) v[k] = dpoint(m.vertices[m.triangles[3 * t + k]]);
+        volume += dot(sub(v[0], o), cross(sub(v[1], o), sub(v[2], o)));
+        const Point a = point(v[0]), b = point(v[1]), c = point(v[2]);
+        if (CGAL::collinear(a, b, c)) continue;
+        DPoint n = cross(sub(v[1], v[0]), sub(v[2], v[0]));
+        const double len = std::sqrt(dot(n, n));
+        if (len > 0) n = {n[0] / len, n[1] / len, n[2] / len};
+        triangles.emplace_back(a, b, c);
+        normals.push_back(n);
+      }
+      if (volume < 0)
+        for (size_t t = begin; t < triangles.size(); ++t) normals[t] = {-normals[t][0], -normals[t][1], -normals[t][2]};
+      group_triangles.push_back({begin, triangles.size()});
+    }
+  }
+};
+
+// A tree over triangles [first, last) of s, ready for queries from several threads.
+std::unique_ptr<Tree> make_tree(const Surfaces& s, size_t first, size_t last) {
+  auto tree = std::make_unique<Tree>(s.triangles.begin() + long(first), s.triangles.begin() + long(last));
+  tree->build();
+  tree->accelerate_distance_queries();
+  return tree;
+}
+
+}  // namespace
+
+std::vector<VertexInside> find_vertices_inside(const CheckMesh& cloth, const CheckMesh& obstacles, CheckReport* report) {
+  std::vector<VertexInside> found;
   std::vector<uint32_t> used;
   {
     std::vector<char> flag(cloth.vertices.size(), 0);
@@ -164,12 +233,13 @@ void check_vertices_inside(const CheckMesh& cloth, const CheckMesh& obstacles, C
     for (uint32_t i = 0; i < flag.size(); ++i)
       if (flag[i]) used.push_back(i);
   }
-  report.vertices_tested += used.size();
+  if (report) report->vertices_tested += used.size();
+  if (obstacles.num_triangles() == 0) return found;
+  std::unique_ptr<Surfaces> surfaces;  // built when a vertex is inside
   const size_t groups = std::max<size_t>(1, obstacles.group_first_triangle.size());
   for (size_t g = 0; g < groups; ++g) {
     const auto [first, last] = group_range(obstacles, g);
     if (first >= last) continue;
-    const std::string name = obstacles.group_names.empty() ? std::string("obstacle") : obstacles.group_names[g];
 
     // The group as a polygon soup with duplicate points merged (generated boxes repeat corners).
     std::vector<Point> points;
@@ -197,36 +267,96 @@ void check_vertices_inside(const CheckMesh& cloth, const CheckMesh& obstacles, C
     };
     std::vector<char> inside(used.size(), 0);
     if (closed) {
-      ++report.closed_obstacles;
+      if (report) ++report->closed_obstacles;
       const CGAL::Side_of_triangle_mesh<CGAL::Surface_mesh<Point>, K> side(mesh);
       for (size_t k = 0; k < used.size(); ++k) {
         const DPoint p = dpoint(cloth.vertices[used[k]]);
         inside[k] = in_box(p) && side(point(p)) == CGAL::ON_BOUNDED_SIDE;
       }
     } else {
-      ++report.open_obstacles;
+      if (report) ++report->open_obstacles;
       tbb::parallel_for(size_t(0), used.size(), [&](size_t k) {
         const DPoint p = dpoint(cloth.vertices[used[k]]);
         inside[k] = in_box(p) && std::abs(winding_number(obstacles, first, last, p)) >= 0.5;
       });
     }
-    for (size_t k = 0; k < used.size(); ++k) {
-      if (!inside[k]) continue;
+    const size_t begin = found.size();
+    for (size_t k = 0; k < used.size(); ++k)
+      if (inside[k]) found.push_back({used[k], uint32_t(g)});
+    if (found.size() == begin) continue;
+
+    // The way out of each: the nearest point of the group's surface, and its face's normal.
+    if (!surfaces) surfaces = std::make_unique<Surfaces>(obstacles);
+    const auto [tri_first, tri_last] = surfaces->group_triangles[g];
+    if (tri_first == tri_last) continue;  // only degenerate faces: no way out to name
+    const std::unique_ptr<Tree> tree = make_tree(*surfaces, tri_first, tri_last);
+    tbb::parallel_for(begin, found.size(), [&](size_t k) {
+      VertexInside& v = found[k];
+      const DPoint p = dpoint(cloth.vertices[v.vertex]);
+      const auto [q, id] = tree->closest_point_and_primitive(point(p));
+      v.nearest = dpoint(q);
+      v.normal = surfaces->normals[size_t(id - surfaces->triangles.begin())];
+      v.depth = std::sqrt(dot(sub(v.nearest, p), sub(v.nearest, p)));
+    });
+  }
+  return found;
+}
+
+void measure_body_gaps(const CheckMesh& obstacles, std::vector<VertexInside>& inside) {
+  if (inside.empty()) return;
+  const Surfaces surfaces(obstacles);
+  if (surfaces.triangles.empty()) return;
+  const std::unique_ptr<Tree> tree = make_tree(surfaces, 0, surfaces.triangles.size());
+  constexpr double kHair = 1e-6;  // metres: the ray starts this far behind q, inside its own face
+  tbb::parallel_for(size_t(0), inside.size(), [&](size_t k) {
+    VertexInside& v = inside[k];
+    const DPoint& n = v.normal;
+    v.gap = HUGE_VAL;
+    if (!(dot(n, n) > 0)) return;
+    const Point origin(v.nearest[0] - kHair * n[0], v.nearest[1] - kHair * n[1], v.nearest[2] - kHair * n[2]);
+    const K::Ray_3 ray(origin, K::Vector_3(n[0], n[1], n[2]));
+    // Faces the ray leaves from behind (or runs along) are skipped: q's own face, and outer layers.
+    const auto skip = [&](TriangleIt t) { return !(dot(n, surfaces.normals[size_t(t - surfaces.triangles.begin())]) < 0); };
+    const auto hit = tree->first_intersection(ray, skip);
+    if (!hit) return;
+    double t = HUGE_VAL;
+    if (const Point* at = boost::get<Point>(&hit->first)) {
+      t = std::sqrt(CGAL::squared_distance(origin, *at));
+    } else if (const K::Segment_3* seg = boost::get<K::Segment_3>(&hit->first)) {
+      t = std::sqrt(std::min(CGAL::squared_distance(origin, seg->source()), CGAL::squared_distance(origin, seg->target())));
+    }
+    v.gap = std::max(0.0, t - kHair);
+  });
+}
+
+void check_vertices_inside(const CheckMesh& cloth, const CheckMesh& obstacles, CheckReport& report, double thickness) {
+  std::vector<VertexInside> inside = find_vertices_inside(cloth, obstacles, &report);
+  if (thickness > 0) measure_body_gaps(obstacles, inside);
+  for (const VertexInside& v : inside) {
+    const std::string name =
+        obstacles.group_names.empty() ? std::string("obstacle") : obstacles.group_names[v.obstacle];
+    if (v.gap < 2 * thickness) {
+      ++report.vertices_pinched;
+      report.min_pinch_gap = std::min(report.min_pinch_gap, v.gap);
+      if (report.first_pinched.size() < CheckReport::kMaxRecords) report.first_pinched.push_back({v.vertex, name, v.gap});
+    } else {
       ++report.vertices_inside;
-      if (report.first_inside.size() < CheckReport::kMaxRecords) report.first_inside.push_back({used[k], name});
+      if (report.first_inside.size() < CheckReport::kMaxRecords) report.first_inside.push_back({v.vertex, name, v.gap});
     }
   }
 }
 
-CheckReport check_state(const CheckMesh& cloth, const CheckMesh& obstacles) {
+CheckReport check_state(const CheckMesh& cloth, const CheckMesh& obstacles, double thickness) {
   CheckReport r;
   check_cloth_crossings(cloth, r);
-  if (obstacles.num_triangles() > 0) check_vertices_inside(cloth, obstacles, r);
+  if (obstacles.num_triangles() > 0) check_vertices_inside(cloth, obstacles, r, thickness);
   return r;
 }
 
 std::string describe(const CheckReport& r) {
   std::string s = fmt::format("{} crossings, {} vertices inside", r.crossings, r.vertices_inside);
+  if (r.vertices_pinched > 0)
+    s += fmt::format(", {} vertices pinched (body gap {:.3g} mm)", r.vertices_pinched, 1e3 * r.min_pinch_gap);
   if (!r.first_crossings.empty()) {
     const CrossingRecord& c = r.first_crossings.front();
     s += fmt::format("; first: edge {}-{} of '{}' through triangle {} of '{}'", c.edge_a, c.edge_b, c.edge_group,
@@ -234,6 +364,9 @@ std::string describe(const CheckReport& r) {
   }
   if (!r.first_inside.empty())
     s += fmt::format("; first: vertex {} inside '{}'", r.first_inside.front().vertex, r.first_inside.front().obstacle);
+  if (!r.first_pinched.empty())
+    s += fmt::format("; first pinched: vertex {} inside '{}' (body gap {:.3g} mm)", r.first_pinched.front().vertex,
+                     r.first_pinched.front().obstacle, 1e3 * r.first_pinched.front().gap);
   return s;
 }
 

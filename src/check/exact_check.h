@@ -10,8 +10,18 @@
 // - Cloth vertices inside obstacles: for a closed obstacle (every edge on two faces once duplicate
 //   points are merged) CGAL's Side_of_triangle_mesh, exact, on the boundary counting as contact;
 //   for an open one (a body with holes) the generalized winding number >= 1/2, in double.
+// - Pinches: where the body itself brings two of its surfaces closer than twice the cloth's
+//   thickness (a hand against a hip), no position of the cloth between them is outside both. A
+//   vertex strictly inside an obstacle is *pinched* when the body's own gap at its way out is below
+//   twice the thickness, else it is a failure. The gap is a float measure of the body alone (not an
+//   exact predicate): from the nearest point q of the obstacle's surface, along the outward normal
+//   n of the face holding q, the distance to the first obstacle face (of any obstacle) that the ray
+//   enters from its front side (n . face normal < 0); faces it leaves from behind are layers of the
+//   same body (clothes over skin) and are skipped. The ray starts 1 um behind q, so a surface
+//   touching q counts with gap 0; no such face: the gap is infinite (a failure).
 #pragma once
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -49,6 +59,18 @@ struct CrossingRecord {
 struct InsideRecord {
   uint32_t vertex = 0;
   std::string obstacle;
+  double gap = HUGE_VAL;  // the body's own gap at the vertex's way out, metres (infinite: none measured)
+};
+
+// A cloth vertex strictly inside an obstacle, and its way out.
+struct VertexInside {
+  uint32_t vertex = 0;    // into the cloth's vertices
+  uint32_t obstacle = 0;  // group of the obstacle mesh
+  DPoint nearest{};       // the nearest point of the obstacle's surface
+  DPoint normal{};        // unit outward normal of the face holding it (the obstacle's faces' winding,
+                          // turned so that the obstacle as a whole winds outwards)
+  double depth = 0;       // distance from the vertex to `nearest`
+  double gap = HUGE_VAL;  // the body's own gap there (measure_body_gaps)
 };
 
 struct CheckReport {
@@ -56,22 +78,42 @@ struct CheckReport {
   size_t pairs_tested = 0;      // edge-triangle pairs sharing no vertex whose boxes overlap
   size_t crossings = 0;         // of those, edges through triangles
   size_t vertices_tested = 0;   // cloth vertices (those used by a triangle) against obstacles
-  size_t vertices_inside = 0;   // (vertex, obstacle) pairs with the vertex strictly inside
+  // (vertex, obstacle) pairs with the vertex strictly inside: failures (vertices_inside) and, where
+  // the body's own gap there is below twice the cloth thickness, pinches (vertices_pinched).
+  size_t vertices_inside = 0;
+  size_t vertices_pinched = 0;
+  double min_pinch_gap = HUGE_VAL;  // metres, the smallest body gap of a pinched vertex
   size_t closed_obstacles = 0, open_obstacles = 0;
   std::vector<CrossingRecord> first_crossings;  // at most kMaxRecords
   std::vector<InsideRecord> first_inside;
+  std::vector<InsideRecord> first_pinched;
   static constexpr size_t kMaxRecords = 8;
-  bool clean() const { return crossings == 0 && vertices_inside == 0; }
+  // A failure: a crossing or a vertex inside that no pinch explains.
+  bool failed() const { return crossings > 0 || vertices_inside > 0; }
+  // Only pinches: not clean, not a failure.
+  bool pinched_only() const { return !failed() && vertices_pinched > 0; }
+  bool clean() const { return !failed() && vertices_pinched == 0; }
 };
 
 // Edges of the cloth through cloth triangles.
 void check_cloth_crossings(const CheckMesh& cloth, CheckReport& report);
-// Cloth vertices (those a triangle uses) strictly inside each obstacle group of `obstacles`.
-void check_vertices_inside(const CheckMesh& cloth, const CheckMesh& obstacles, CheckReport& report);
-// Both.
-CheckReport check_state(const CheckMesh& cloth, const CheckMesh& obstacles);
+// Cloth vertices (those a triangle uses) strictly inside each obstacle group of `obstacles`, in the
+// order of the groups and then of the vertices, with their nearest surface points (gap not
+// measured). `report` (optional) counts the closed and open obstacles and the vertices tested.
+std::vector<VertexInside> find_vertices_inside(const CheckMesh& cloth, const CheckMesh& obstacles,
+                                               CheckReport* report = nullptr);
+// Fills each one's `gap`: the body's own gap at its way out (see the top of this file), against
+// every obstacle of `obstacles`.
+void measure_body_gaps(const CheckMesh& obstacles, std::vector<VertexInside>& inside);
+// Cloth vertices strictly inside obstacles: pinched where the body gap is below 2 * thickness,
+// failures otherwise. thickness 0: every vertex inside is a failure (no gap measured).
+void check_vertices_inside(const CheckMesh& cloth, const CheckMesh& obstacles, CheckReport& report,
+                           double thickness = 0);
+// Both. `thickness`: the cloth's (scene collision.thickness), for telling pinches from failures.
+CheckReport check_state(const CheckMesh& cloth, const CheckMesh& obstacles, double thickness = 0);
 
-// One line: "0 crossings, 0 vertices inside" or the counts with the first offender named.
+// One line: "0 crossings, 0 vertices inside" or the counts with the first offender named;
+// pinches add ", N vertices pinched (body gap G mm)".
 std::string describe(const CheckReport& r);
 
 }  // namespace raycloth

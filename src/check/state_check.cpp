@@ -5,10 +5,16 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <regex>
 
 #include "raycloth/error.h"
+#include "raycloth/scene.h"
 
 namespace raycloth {
 
@@ -48,8 +54,64 @@ void refuse_crossing_start(const ClothModel& model, const std::string& scene_fil
                                which, r.crossings));
 }
 
+namespace {
+
+// A length for a message: 3 significant digits, 0.1 mm resolution, no "-0".
+std::string metres(double v) {
+  v = std::round(v * 1e4) / 1e4;
+  return fmt::format("{:.3g}", v == 0 ? 0.0 : v);
+}
+
+}  // namespace
+
+void refuse_inside_start(const ClothModel& model, const ObstacleSet& obstacles, const SceneDef& scene) {
+  if (obstacles.world.num_triangles() == 0) return;
+  std::vector<Vec3> posed, velocities;
+  obstacles.pose_at(0.0, posed, velocities);
+  const CheckMesh cloth = cloth_check_mesh(model, model.initial_positions);
+  const std::vector<VertexInside> inside = find_vertices_inside(cloth, obstacle_check_mesh(obstacles, posed));
+  if (inside.empty()) return;
+  // A panel's vertices are those its triangles use (a welded seam vertex belongs to both sides).
+  std::vector<char> in_panel(cloth.vertices.size());
+  for (size_t pi = 0; pi < model.pieces.size(); ++pi) {
+    const Piece& piece = model.pieces[pi];
+    std::fill(in_panel.begin(), in_panel.end(), 0);
+    for (uint32_t t = piece.first_triangle; t < piece.first_triangle + piece.num_triangles; ++t)
+      for (int k = 0; k < 3; ++k) in_panel[cloth.triangles[3 * t + k]] = 1;
+    for (size_t oi = 0; oi < obstacles.names.size(); ++oi) {
+      size_t count = 0;
+      const VertexInside* deepest = nullptr;
+      for (const VertexInside& v : inside)
+        if (v.obstacle == oi && in_panel[v.vertex]) {
+          ++count;
+          if (!deepest || v.depth > deepest->depth) deepest = &v;
+        }
+      if (count == 0) continue;
+      // The deepest vertex's way out to the surface, and the thickness beyond it.
+      const DPoint p{double(cloth.vertices[deepest->vertex].x), double(cloth.vertices[deepest->vertex].y),
+                     double(cloth.vertices[deepest->vertex].z)};
+      DPoint out{deepest->nearest[0] - p[0], deepest->nearest[1] - p[1], deepest->nearest[2] - p[2]};
+      const double scale = deepest->depth > 0 ? (deepest->depth + double(scene.collision.thickness)) / deepest->depth : 0;
+      for (int d = 0; d < 3; ++d)
+        out[d] = deepest->depth > 0 ? out[d] * scale : deepest->normal[d] * double(scene.collision.thickness);
+      const std::string how_deep =
+          count == 1 ? fmt::format("{} m below its surface", metres(deepest->depth))
+                     : fmt::format("the deepest {} m below its surface", metres(deepest->depth));
+      throw InputError(scene.source, "/panels/" + std::to_string(pi),
+                       fmt::format("panel '{}' starts with {} {} inside obstacle '{}' ({}); move the panel out of "
+                                   "it, e.g. by ({}, {}, {})",
+                                   piece.name, count, count == 1 ? "vertex" : "vertices", obstacles.names[oi],
+                                   how_deep, metres(out[0]), metres(out[1]), metres(out[2])));
+    }
+  }
+}
+
 size_t FolderCheck::bad_frames() const {
-  return size_t(std::count_if(frames.begin(), frames.end(), [](const auto& f) { return !f.report.clean(); }));
+  return size_t(std::count_if(frames.begin(), frames.end(), [](const auto& f) { return f.report.failed(); }));
+}
+
+size_t FolderCheck::pinched_frames() const {
+  return size_t(std::count_if(frames.begin(), frames.end(), [](const auto& f) { return f.report.pinched_only(); }));
 }
 
 namespace {
@@ -66,6 +128,23 @@ CheckMesh read_obj(const fs::path& path) {
   m.group_names = std::move(obj.group_names);
   m.group_first_triangle = std::move(obj.group_first_triangle);
   return m;
+}
+
+// The cloth thickness of the run that wrote `dir`: run.json's /thickness.
+double run_thickness(const fs::path& dir) {
+  const fs::path file = dir / "run.json";
+  const std::string where = file.string(), field = "/thickness";
+  const std::string why = "`raycloth check` needs the run's cloth thickness (which `raycloth run` writes there) to tell "
+                          "cloth pinched by the body from penetration";
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InputError(where, field, "cannot be read (" + std::string(std::strerror(errno)) + "); " + why);
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) throw InputError(where, "", "is not a JSON object; " + why);
+  if (!j.contains("thickness")) throw InputError(where, field, "missing; " + why + ": run the scene again");
+  const nlohmann::json& t = j["thickness"];
+  if (!t.is_number() || !(t.get<double>() >= 0) || !std::isfinite(t.get<double>()))
+    throw InputError(where, field, "must be a non-negative number of metres (got " + t.dump() + ")");
+  return t.get<double>();
 }
 
 }  // namespace
@@ -85,11 +164,15 @@ FolderCheck check_output_folder(const fs::path& dir, const std::function<void(co
   const fs::path static_obstacles = dir / "obstacles.obj";
   const CheckMesh fixed = fs::exists(static_obstacles) ? read_obj(static_obstacles) : CheckMesh{};
   FolderCheck out;
+  bool any_obstacles = fixed.num_triangles() > 0;
+  for (const auto& [index, path] : frames)
+    any_obstacles = any_obstacles || fs::exists(dir / "frames" / fmt::format("obstacles_{:04d}.obj", index));
+  if (any_obstacles) out.thickness = run_thickness(dir);
   for (const auto& [index, path] : frames) {
     const CheckMesh cloth = read_obj(path);
     const fs::path moving = dir / "frames" / fmt::format("obstacles_{:04d}.obj", index);
     const CheckMesh obstacles = fs::exists(moving) ? read_obj(moving) : fixed;
-    out.frames.push_back({index, check_state(cloth, obstacles)});
+    out.frames.push_back({index, check_state(cloth, obstacles, out.thickness)});
     if (on_frame) on_frame(out.frames.back());
   }
   return out;

@@ -31,6 +31,8 @@ std::string frame_name(const std::string& prefix, int index, const std::string& 
   return fmt::format("{}_{:04d}.{}", prefix, index, ext);
 }
 
+double check_thickness(const SceneDef& scene) { return std::stod(fmt::format("{}", scene.collision.thickness)); }
+
 namespace {
 
 double kinetic_energy(const ClothModel& m, const std::vector<Vec3>& v) {
@@ -116,6 +118,8 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
   j["obstacle_triangles"] = sim.obstacles().world.num_triangles();
   j["dt"] = sim.scene().time.dt;
   j["fps"] = sim.scene().time.fps;
+  // The cloth thickness (metres): `raycloth check DIR` reads it to tell pinches from failures.
+  j["thickness"] = check_thickness(sim.scene());
   // The scene's camera, so that `raycloth render DIR` shows the run as the run would have.
   const CameraDef& cam = sim.scene().output.camera;
   nlohmann::json camera = {{"fov", cam.fov}, {"resolution", {cam.width, cam.height}}, {"samples", cam.samples}};
@@ -132,6 +136,8 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
     if (f.crossings >= 0) {
       jf["crossings"] = f.crossings;
       jf["vertices_inside"] = f.vertices_inside;
+      jf["pinched"] = f.pinched;
+      jf["pinch_gap"] = std::isfinite(f.pinch_gap) ? nlohmann::json(f.pinch_gap) : nlohmann::json(nullptr);
     }
     frames.push_back(jf);
   }
@@ -148,15 +154,23 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
   if (r.check.enabled) {
     j["check"] = {{"method", "exact: every cloth edge against every cloth triangle sharing no vertex (CGAL filtered "
                              "exact orientation predicates); every cloth vertex against every obstacle (closed: "
-                             "CGAL Side_of_triangle_mesh; open: winding number >= 1/2); on every written frame"},
+                             "CGAL Side_of_triangle_mesh; open: winding number >= 1/2); on every written frame. "
+                             "A vertex inside is pinched, not a failure, where the body's own gap at its way out "
+                             "is below twice the thickness"},
                   {"frames_checked", r.check.frames_checked},
                   {"bad_frames", r.check.bad_frames},
                   {"first_bad_frame", r.check.first_bad_frame},
                   {"max_crossings", r.check.max_crossings},
                   {"max_vertices_inside", r.check.max_vertices_inside},
+                  {"pinched_frames", r.check.pinched_frames},
+                  {"first_pinched_frame", r.check.first_pinched_frame},
+                  {"max_vertices_pinched", r.check.max_vertices_pinched},
+                  {"min_pinch_gap", std::isfinite(r.check.min_pinch_gap) ? nlohmann::json(r.check.min_pinch_gap)
+                                                                          : nlohmann::json(nullptr)},
                   {"closed_obstacles", r.check.closed_obstacles},
                   {"open_obstacles", r.check.open_obstacles}};
     if (!r.check.first_problem.empty()) j["check"]["first_problem"] = r.check.first_problem;
+    if (!r.check.first_pinch.empty()) j["check"]["first_pinch"] = r.check.first_pinch;
   } else {
     j["check"] = {{"method", "none (run with the check turned off)"}};
   }
@@ -218,9 +232,12 @@ std::string settings_difference(const std::string& a, const std::string& b) {
 void save_check(ByteWriter& w, const RunCheck& c) {
   for (uint64_t v : {uint64_t(c.frames_checked), uint64_t(c.bad_frames), uint64_t(int64_t(c.first_bad_frame)),
                      uint64_t(c.max_crossings), uint64_t(c.max_vertices_inside), uint64_t(c.closed_obstacles),
-                     uint64_t(c.open_obstacles)})
+                     uint64_t(c.open_obstacles), uint64_t(c.pinched_frames), uint64_t(c.max_vertices_pinched),
+                     uint64_t(int64_t(c.first_pinched_frame))})
     w.u64(v);
+  w.f64(c.min_pinch_gap);
   w.str(c.first_problem);
+  w.str(c.first_pinch);
 }
 
 void restore_check(ByteReader& r, RunCheck& c) {
@@ -231,7 +248,12 @@ void restore_check(ByteReader& r, RunCheck& c) {
   c.max_vertices_inside = r.u64();
   c.closed_obstacles = r.u64();
   c.open_obstacles = r.u64();
+  c.pinched_frames = r.u64();
+  c.max_vertices_pinched = r.u64();
+  c.first_pinched_frame = int(int64_t(r.u64()));
+  c.min_pinch_gap = r.f64();
   c.first_problem = r.str();
+  c.first_pinch = r.str();
 }
 
 }  // namespace
@@ -293,6 +315,7 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
     spdlog::warn("device {} cannot write checkpoints: this run cannot be resumed", sim.device());
 
   uint64_t clamped_seen = 0, pushed_seen = 0;
+  const double thickness = check_thickness(scene);
   auto emit = [&](FrameRecord rec) {
     rec.time = sim.time();
     rec.step = sim.steps();
@@ -304,19 +327,28 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
     rec.kinetic_energy = kinetic_energy(sim.model(), sim.velocities());
     if (opt.check) {
       const CheckReport c = check_state(cloth_check_mesh(sim.model(), sim.positions()),
-                                        obstacle_check_mesh(sim.obstacles(), sim.obstacle_vertices()));
+                                        obstacle_check_mesh(sim.obstacles(), sim.obstacle_vertices()), thickness);
       rec.crossings = long(c.crossings);
       rec.vertices_inside = long(c.vertices_inside);
+      rec.pinched = long(c.vertices_pinched);
+      rec.pinch_gap = c.min_pinch_gap;
       RunCheck& rc = report.check;
       ++rc.frames_checked;
       rc.closed_obstacles = c.closed_obstacles;
       rc.open_obstacles = c.open_obstacles;
       rc.max_crossings = std::max(rc.max_crossings, c.crossings);
       rc.max_vertices_inside = std::max(rc.max_vertices_inside, c.vertices_inside);
-      if (!c.clean()) {
+      rc.max_vertices_pinched = std::max(rc.max_vertices_pinched, c.vertices_pinched);
+      rc.min_pinch_gap = std::min(rc.min_pinch_gap, c.min_pinch_gap);
+      if (c.failed()) {
         if (rc.bad_frames++ == 0) {
           rc.first_bad_frame = rec.index;
           rc.first_problem = describe(c);
+        }
+      } else if (c.pinched_only()) {
+        if (rc.pinched_frames++ == 0) {
+          rc.first_pinched_frame = rec.index;
+          rc.first_pinch = describe(c);
         }
       }
     }

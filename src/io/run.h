@@ -1,6 +1,7 @@
 // Runs a scene to an output folder: frames, obstacles, run.json, progress. The CLI and the tests
 // both come through here; only the CLI decides to exit.
 #pragma once
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -28,10 +29,14 @@ struct FrameRecord {
   double steps_per_second = 0;  // wall-clock rate over the frame's steps
   // The exact check of this frame (check/exact_check.h); -1 when the run was asked not to check.
   long crossings = -1;          // cloth edges through cloth triangles
-  long vertices_inside = -1;    // cloth vertices strictly inside an obstacle
+  long vertices_inside = -1;    // cloth vertices strictly inside an obstacle (failures: no pinch explains them)
+  long pinched = -1;            // cloth vertices strictly inside where the body's own gap is < 2 x thickness
+  double pinch_gap = HUGE_VAL;  // metres, the smallest body gap of a pinched vertex (infinite: none)
 };
 
-// The exact check over every written frame.
+// The exact check over every written frame. A bad frame has a failure (a crossing or a vertex
+// inside); a pinched frame has only pinches (vertices inside where the body's own surfaces are
+// closer than twice the cloth thickness), which is not clean and not a failure.
 struct RunCheck {
   bool enabled = true;
   size_t frames_checked = 0, bad_frames = 0;
@@ -39,7 +44,15 @@ struct RunCheck {
   size_t max_crossings = 0, max_vertices_inside = 0;
   std::string first_problem;  // describe() of the first bad frame
   size_t closed_obstacles = 0, open_obstacles = 0;
+  size_t pinched_frames = 0, max_vertices_pinched = 0;
+  double min_pinch_gap = HUGE_VAL;  // metres, over every frame (infinite: no pinch)
+  int first_pinched_frame = -1;
+  std::string first_pinch;  // describe() of the first pinched frame
 };
+
+// The cloth thickness the check uses to tell pinches from failures, as run.json's /thickness holds
+// it: the scene's float written in its shortest decimal form (0.002, not 0.0020000000949949026).
+double check_thickness(const SceneDef& scene);
 
 // Receives every output frame (frame 0 is the initial state). Writers of further formats and the
 // image renderer plug in here. end() comes after the last frame, and also when the run stops on a

@@ -22,6 +22,8 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
   resolve_attachments(*model_, *obstacles_, scene_);
   // The displacement bound keeps apart what starts apart; it cannot undo a crossing.
   refuse_crossing_start(*model_, scene_.source);
+  // Nor can it bring out a vertex that starts inside a body: the exact check would fail every frame.
+  refuse_inside_start(*model_, *obstacles_, scene_);
 
   const double t0 = model_->natural_period();
   if (scene_.time.dt >= t0) {
