@@ -8,9 +8,14 @@
 //   first(stage, n, f, slot)       *slot = min(*slot, smallest i with f(i) false)
 //   cast(rays, n, hits)            nearest hit per ray against obstacles and cloth
 //   refit_cloth(counters)          the cloth's proximity tree at x, needed when counters->refresh > 0
+//   refit_cloth_at(x, counters)    the cloth's tree at x (a further pass of the bound, when active)
 //   peek(slot, unknown)            *slot where the host can read it for free (CPU), else `unknown`
 //                                  (GPU): lets the CPU skip loops that would do nothing
+//   counters()                     the step's counters on the host (the GPU copies them back)
 //   end()                          x, v <- x_next, v_next
+//
+// A step is five named phases (run_step): integrate, respond, contact (sim/contact.h), bound
+// (sim/bound.h) and finish; run_steps runs n of them with the counters and the blow-up stop.
 //
 // The CPU executor runs oneTBB loops and casts with Embree (or the host BVH in tests); the CUDA
 // executor launches kernels into one graph. The lambdas only capture the StepView (plain pointers)
@@ -94,20 +99,31 @@ void run_bound_passes(Exec& ex, const StepView& s) {
   }
 }
 
+// Integrate: eq. (2) and (3) give the proposed x', v'; the paper's ray per vertex along its move.
 template <class Exec>
-void run_step(Exec& ex, uint64_t step) {
-  const StepView s = ex.begin(step);
-  StepCounters* c = s.counters;
-  const uint32_t n = s.model.num_vertices, nt = s.model.num_triangles;
+void run_integrate(Exec& ex, const StepView& s) {
+  ex.for_each(Stage::Integrate, s.model.num_vertices, [s] RC_LAMBDA(uint32_t i) { stage_integrate(s, i); });
+}
 
-  ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_integrate(s, i); });
+// Respond: the collision buffer from the rays (two casts), the paper's response, then the
+// obstacles at t + dt.
+template <class Exec>
+void run_respond(Exec& ex, const StepView& s) {
+  StepCounters* c = s.counters;
+  const uint32_t n = s.model.num_vertices;
   ex.cast(s.rays, n, s.hits);
   ex.for_each(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { stage_respond_velocity(s, i); });
   ex.cast(s.rays, n, s.hits);
   ex.sum(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { return stage_respond_contact(s, i); }, &c->hits);
   ex.for_each(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { stage_obstacles(s, i); });
-  run_contact_solve(ex, s);
+}
 
+// Bound: decide and run the refresh, clamp every vertex into its ball, go on where a pushed vertex
+// was held back (run_bound_passes), and count what the bound did to the pushes.
+template <class Exec>
+void run_bound(Exec& ex, const StepView& s) {
+  StepCounters* c = s.counters;
+  const uint32_t n = s.model.num_vertices;
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_wants_refresh(s, i); }, &c->wants);
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_wants_refresh_now(s, i); }, &c->wants_now);
   ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_decide_refresh(s); });
@@ -119,9 +135,26 @@ void run_step(Exec& ex, uint64_t step) {
   run_bound_passes(ex, s);
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_push_clamped(s, i); }, &c->push_clamped);
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_conflict(s, i); }, &c->conflicts);
-  ex.sum(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { return (s.flags[i] & kFlagPushed) ? 1u : 0u; }, &c->pushed);
+}
 
+// Finish: count the pushes, weld seam partners, stop on a blow-up.
+template <class Exec>
+void run_finish(Exec& ex, const StepView& s) {
+  StepCounters* c = s.counters;
+  const uint32_t n = s.model.num_vertices;
+  ex.sum(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { return (s.flags[i] & kFlagPushed) ? 1u : 0u; }, &c->pushed);
   ex.first(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { return stage_finish(s, i); }, &c->bad_vertex);
+}
+
+// One step: the named phases in order, the same on every backend.
+template <class Exec>
+void run_step(Exec& ex, uint64_t step) {
+  const StepView s = ex.begin(step);
+  run_integrate(ex, s);
+  run_respond(ex, s);
+  run_contact_solve(ex, s);
+  run_bound(ex, s);
+  run_finish(ex, s);
   ex.end();
 }
 
