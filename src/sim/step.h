@@ -87,7 +87,6 @@ template <class Exec>
 void run_bound_passes(Exec& ex, const StepView& s) {
   StepCounters* c = s.counters;
   const uint32_t n = s.model.num_vertices;
-  if (!(s.obstacle_reach > 0.0f)) return;  // only a moving body pushes faster than the bound allows
   StepView m = s;
   m.x = s.x_mid;
   for (uint32_t pass = 1; pass < kBoundPasses && ex.peek(&c->held, 1u) > 0u; ++pass) {
@@ -129,10 +128,13 @@ void run_bound(Exec& ex, const StepView& s) {
   ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_decide_refresh(s); });
   ex.refit_cloth(c);
   run_bound_refresh(ex, s);
-  ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_save_goal(s, i); });
+  const bool moving = s.obstacle_reach > 0.0f;  // further passes only where a body moves
+  if (moving) ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_save_goal(s, i); });
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_clamp(s, i); }, &c->clamped);
-  ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_held(s, i); }, &c->held);
-  run_bound_passes(ex, s);
+  if (moving) {
+    ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_held(s, i); }, &c->held);
+    run_bound_passes(ex, s);
+  }
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_push_clamped(s, i); }, &c->push_clamped);
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_conflict(s, i); }, &c->conflicts);
 }
