@@ -84,6 +84,24 @@ TEST(ContactSolve, PinnedTriangleMovesNothingBack) {
   EXPECT_FALSE(contact_correction(p, pinned, y, 0.002f, 0.0f, d));
 }
 
+// A pair whose only free vertex has a tiny weight (a triangle corner with weight 0.01, the vertex
+// and the other corners pinned): the full correction would move it by the shortfall over its weight
+// (100 times it), which the velocity round turned into a blow-up on the walking man. It moves at most
+// kContactMoveCap (3) times the shortfall.
+TEST(ContactSolve, NoVertexMovesFartherThanTheShortfall) {
+  ContactPair p;
+  p.v[0] = 0, p.v[1] = 1, p.v[2] = 2, p.v[3] = 3;
+  p.w[0] = 1.0f, p.w[1] = -0.98f, p.w[2] = -0.01f, p.w[3] = -0.01f;
+  p.n = make_vec3(0, 1, 0);
+  const float inv[4] = {0.0f, 0.0f, 3.0f, 0.0f};
+  const Vec3 y[4] = {make_vec3(0, 0.001f, 0), make_vec3(0, 0, 0), make_vec3(0, 0, 0), make_vec3(0, 0, 0)};
+  Vec3 d[4];
+  ASSERT_TRUE(contact_correction(p, inv, y, 0.002f, 0.0f, d));
+  EXPECT_LE(length(d[2]), kContactMoveCap * 0.001f + 1e-9f);
+  EXPECT_GT(length(d[2]), 0.0f);
+  EXPECT_EQ(length(d[0]) + length(d[1]) + length(d[3]), 0.0f);  // the pinned ones move nothing
+}
+
 // Two edges crossing 1 mm apart at their middles (weights 1/2 each side), thickness 2 mm, equal
 // masses: each of the four vertices moves 1/2 mm along the normal, the two edges apart.
 TEST(ContactSolve, CrossingEdgesArePushedApartEvenly) {

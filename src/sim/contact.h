@@ -65,6 +65,8 @@ inline constexpr float kNearFactor = 4.0f;
 // corrections (layers resting on each other) wait for the bound's next refresh, at most
 // kBoundMaxAge - 1 steps, falling short by less than that many times this share.
 inline constexpr float kContactPushed = 0.02f;
+// The most a pair moves one of its vertices, in shortfalls (contact_correction).
+inline constexpr float kContactMoveCap = 3.0f;
 
 // The gap pairs with vertices moving `move` in this step are held at.
 RC_HD float contact_gap(float thickness, float move) {
@@ -256,7 +258,8 @@ RC_HD uint32_t stage_contact_find_edge(const StepView& s, uint32_t e) {
 // short of the target by more than `slack`; then each vertex moves by
 // d_k = inv_k w_k lambda n with lambda = (target - n . sum w y) / sum_k w_k^2 inv_k, so that
 // sum_k m_k d_k = lambda n sum_k w_k = 0 (the weights of each side sum to 1 and -1): momentum is
-// conserved. Returns false when the pair does not act.
+// conserved. lambda is capped so that no vertex moves more than kContactMoveCap times the shortfall.
+// Returns false when the pair does not act.
 RC_HD bool contact_correction(const ContactPair& p, const float inv[4], const Vec3 y[4], float target, float slack,
                               Vec3 d[4]) {
   float denom = 0.0f;
@@ -268,7 +271,13 @@ RC_HD bool contact_correction(const ContactPair& p, const float inv[4], const Ve
   if (!(denom > 0.0f)) return false;  // both sides pinned
   const float c = dot(p.n, sum) - target;
   if (!(c < -slack)) return false;
-  const float lambda = -c / denom;
+  // No vertex moves farther than kContactMoveCap times the shortfall: where the only free vertex of
+  // a pair has a tiny weight (the rest pinned, or backed by a body), the full correction would throw
+  // it by the shortfall over its weight, and the velocity round would make that a blow-up. A free
+  // corner of weight 1/3 or more needs at most 3 times the shortfall, so real pairs are not capped.
+  float most = 0.0f;
+  for (int k = 0; k < 4; ++k) most = fmaxf(most, fabsf(p.w[k]) * inv[k]);
+  const float lambda = fminf(-c / denom, kContactMoveCap * -c / most);
   for (int k = 0; k < 4; ++k) d[k] = p.n * (lambda * p.w[k] * inv[k]);
   return true;
 }
