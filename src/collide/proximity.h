@@ -130,36 +130,40 @@ RC_HD TrianglePoint closest_on_triangle(DVec3 p, DVec3 a, DVec3 b, DVec3 c) {
   return finish(1 - v - w, v, w);
 }
 
-// Squared distance between segments p1q1 and p2q2 (Ericson 5.1.9), degenerate segments included.
-RC_HD double segment_segment_dist2(DVec3 p1, DVec3 q1, DVec3 p2, DVec3 q2) {
+// The closest points of segments p1q1 and p2q2: parameters s, t in [0, 1] (Ericson 5.1.9),
+// degenerate segments included.
+RC_HD void closest_segment_params(DVec3 p1, DVec3 q1, DVec3 p2, DVec3 q2, double& s, double& t) {
   const DVec3 d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
   const double a = ddot(d1, d1), e = ddot(d2, d2), f = ddot(d2, r);
   const double eps = 1e-30;
-  double s, t;
-  if (a <= eps && e <= eps) {
-    s = t = 0.0;
-  } else if (a <= eps) {
-    s = 0.0;
+  s = t = 0.0;
+  if (a <= eps && e <= eps) return;
+  if (a <= eps) {
     t = dclamp01(f / e);
-  } else {
-    const double c = ddot(d1, r);
-    if (e <= eps) {
-      t = 0.0;
-      s = dclamp01(-c / a);
-    } else {
-      const double b = ddot(d1, d2), denom = a * e - b * b;
-      s = denom > 0.0 ? dclamp01((b * f - c * e) / denom) : 0.0;
-      t = (b * s + f) / e;
-      if (t < 0.0) {
-        t = 0.0;
-        s = dclamp01(-c / a);
-      } else if (t > 1.0) {
-        t = 1.0;
-        s = dclamp01((b - c) / a);
-      }
-    }
+    return;
   }
-  const DVec3 u = (p1 + d1 * s) - (p2 + d2 * t);
+  const double c = ddot(d1, r);
+  if (e <= eps) {
+    s = dclamp01(-c / a);
+    return;
+  }
+  const double b = ddot(d1, d2), denom = a * e - b * b;
+  s = denom > 0.0 ? dclamp01((b * f - c * e) / denom) : 0.0;
+  t = (b * s + f) / e;
+  if (t < 0.0) {
+    t = 0.0;
+    s = dclamp01(-c / a);
+  } else if (t > 1.0) {
+    t = 1.0;
+    s = dclamp01((b - c) / a);
+  }
+}
+
+// Squared distance between segments p1q1 and p2q2.
+RC_HD double segment_segment_dist2(DVec3 p1, DVec3 q1, DVec3 p2, DVec3 q2) {
+  double s, t;
+  closest_segment_params(p1, q1, p2, q2, s, t);
+  const DVec3 u = (p1 + (q1 - p1) * s) - (p2 + (q2 - p2) * t);
   return ddot(u, u);
 }
 

@@ -166,34 +166,6 @@ RC_HD uint32_t stage_contact_find_vertex(const StepView& s, uint32_t i) {
   return found;
 }
 
-// The closest points of segments p1q1 and p2q2: parameters s, t in [0, 1] (Ericson 5.1.9).
-RC_HD void closest_segment_params(DVec3 p1, DVec3 q1, DVec3 p2, DVec3 q2, double& s, double& t) {
-  const DVec3 d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
-  const double a = ddot(d1, d1), e = ddot(d2, d2), f = ddot(d2, r);
-  const double eps = 1e-30;
-  s = t = 0.0;
-  if (a <= eps && e <= eps) return;
-  if (a <= eps) {
-    t = dclamp01(f / e);
-    return;
-  }
-  const double c = ddot(d1, r);
-  if (e <= eps) {
-    s = dclamp01(-c / a);
-    return;
-  }
-  const double b = ddot(d1, d2), denom = a * e - b * b;
-  s = denom > 0.0 ? dclamp01((b * f - c * e) / denom) : 0.0;
-  t = (b * s + f) / e;
-  if (t < 0.0) {
-    t = 0.0;
-    s = dclamp01(-c / a);
-  } else if (t > 1.0) {
-    t = 1.0;
-    s = dclamp01((b - c) / a);
-  }
-}
-
 // Edge e's pairs: up to kEdgePairs cloth edges sharing no vertex with it within the thickness at
 // y, each unordered pair once (from the edge whose vertex pair is smaller). The direction: the
 // edges' common normal turned to the side edge e was on at x, or for near-parallel edges the
