@@ -244,6 +244,15 @@ RC_HD uint32_t atomic_fetch_add_one(uint32_t* slot) {
 #endif
 }
 
+// *slot += value; returns the value before.
+RC_HD uint32_t atomic_fetch_add_u32(uint32_t* slot, uint32_t value) {
+#if defined(__CUDA_ARCH__)
+  return atomicAdd(slot, value);
+#else
+  return std::atomic_ref<uint32_t>(*slot).fetch_add(value, std::memory_order_relaxed);
+#endif
+}
+
 RC_HD Vec3 from_fixed(const FixedVec3& f) {
   return make_vec3(float(double(f.x) / kFixedScale), float(double(f.y) / kFixedScale), float(double(f.z) / kFixedScale));
 }

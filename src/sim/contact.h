@@ -260,17 +260,34 @@ RC_HD uint32_t stage_contact_push(const StepView& s, uint32_t k, uint32_t mode) 
   if (s.counters->contact_done || k >= s.counters->contact_pairs) return 0u;
   const ContactPair& p = s.pairs[s.pair_list[k]];
   Vec3 y[4];
-  float inv[4], move = 0.0f;
+  float inv[4], free_inv[4], move = 0.0f, denom = 0.0f;
+  bool backed = false;
   for (int k = 0; k < 4; ++k) {
     const uint32_t v = p.v[k];
     y[k] = mode == 0u ? s.x_next[v] : s.v_next[v];
-    inv[k] = s.model.inv_mass[v];
+    inv[k] = free_inv[k] = s.model.inv_mass[v];
     move = fmaxf(move, length(s.x_next[v] - s.x[v]));
     // A vertex an obstacle pushed this step has the body behind it: toward the body it cannot
     // yield, so there it counts as kinematic (the body's infinite mass) and the other side moves.
-    if ((s.flags[v] & kFlagPushed) && dot(p.n, s.contact_normal[v]) * p.w[k] < 0.0f) inv[k] = 0.0f;
+    // A squeezed vertex (below) yields into its thickness; the obstacles still hold it outside.
+    if ((s.flags[v] & (kFlagPushed | kFlagSqueezed)) == kFlagPushed && dot(p.n, s.contact_normal[v]) * p.w[k] < 0.0f) {
+      inv[k] = 0.0f;
+      backed = backed || free_inv[k] > 0.0f;
+    }
+    denom += p.w[k] * p.w[k] * inv[k];
   }
-  const float gap = contact_gap(s.coll.thickness, fminf(move, s.obstacle_reach));
+  float gap = contact_gap(s.coll.thickness, fminf(move, s.obstacle_reach));
+  // A squeeze: every free vertex of the pair is backed by a body, on both sides (a hand pressing
+  // two layers against a hip). The bodies win, so nothing of the pair could move, and the bound
+  // would then let the layers close in on each other step after step until neither can move at all
+  // (a ball of radius 0). Instead the pair's backed vertices give way into their own thickness
+  // (kFlagSqueezed: the obstacles hold them kSqueezeOffset of it off the body from the next round on)
+  // and the pair asks only for the thickness itself.
+  const bool squeeze = mode == 0u && !(denom > 0.0f) && backed;
+  if (squeeze) {
+    for (int k = 0; k < 4; ++k) inv[k] = free_inv[k];
+    gap = fminf(gap, s.coll.thickness);
+  }
   if (mode == 1u) {
     // Velocities only where the positions are in contact (at the thickness, or within 5 % of it).
     Vec3 sum = make_vec3(0, 0, 0);
@@ -281,10 +298,13 @@ RC_HD uint32_t stage_contact_push(const StepView& s, uint32_t k, uint32_t mode) 
   const float target = mode == 0u ? gap : 0.0f;
   const float slack = mode == 0u ? kContactSlack * gap : 0.0f;
   if (!contact_correction(p, inv, y, target, slack, d)) return 0u;
+  // The count's upper half marks a squeezed vertex (read in stage_contact_apply; flags are not
+  // written here, so every pair of the round reads the same flags).
+  const uint32_t one = squeeze ? 1u + (1u << 16) : 1u;
   for (int k = 0; k < 4; ++k) {
     if (!(inv[k] > 0.0f)) continue;
     atomic_add_fixed(&s.push[p.v[k]], d[k]);
-    atomic_fetch_add_one(&s.push_count[p.v[k]]);
+    atomic_fetch_add_u32(&s.push_count[p.v[k]], one);
   }
   return 1u;
 }
@@ -294,11 +314,12 @@ RC_HD uint32_t stage_contact_push(const StepView& s, uint32_t k, uint32_t mode) 
 // clearance is then held outside the obstacles again (they are kinematic: the body wins). Returns
 // 1 when the vertex moved.
 RC_HD uint32_t stage_contact_apply(const StepView& s, uint32_t i, uint32_t mode) {
-  const uint32_t count = s.push_count[i];
+  const uint32_t raw = s.push_count[i], count = raw & 0xFFFFu;
   if (count == 0u) return 0u;
   const Vec3 d = from_fixed(s.push[i]) * fminf(1.0f, kContactRelax / float(count));
   s.push[i] = FixedVec3();
   s.push_count[i] = 0u;
+  if (raw >> 16) s.flags[i] |= kFlagSqueezed;
   if (mode == 1u) {
     s.v_next[i] += d;
     return 0u;

@@ -151,6 +151,12 @@ inline constexpr uint32_t kFlagInside = 8u;   // inside an obstacle at t + dt, o
 inline constexpr uint32_t kFlagRefresh = 16u; // its ball is recomputed by this step's partial refresh
 inline constexpr uint32_t kFlagContact = 32u; // the two-sided contact solve pushed it this step
 inline constexpr uint32_t kFlagNearCloth = 64u; // a cloth triangle not its own is near it (sim/contact.h)
+inline constexpr uint32_t kFlagSqueezed = 128u; // held between a body and cloth a body backs (sim/contact.h)
+
+// How far off a body a squeezed vertex is held (a share of the thickness): a vertex between a body
+// and cloth that another body (or another side of the body) pushes from the far side cannot be at
+// the thickness from both; it yields into its own thickness toward the body, never into the body.
+inline constexpr float kSqueezeOffset = 0.25f;
 
 
 
@@ -282,6 +288,8 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
   if (!is_representative(s.model, i)) return;
   Vec3& xn = s.x_next[i];
   s.clearance[i] = INFINITY;
+  // The distance kept from the body: the thickness, or a share of it for a squeezed vertex.
+  const float offset = (s.flags[i] & kFlagSqueezed) ? kSqueezeOffset * s.coll.thickness : s.coll.thickness;
   if (s.model.inv_mass[i] != 0.0f && s.obstacle_bvh.num_prims > 0 && is_finite(xn)) {
     // A vertex outside at t can be at most its own move plus the obstacle's move inside at t + dt.
     const float reach = s.coll.thickness + length(xn - s.x[i]) + s.obstacle_reach;
@@ -298,14 +306,14 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
         const double k = (inside ? -1.0 : 1.0) / dist;
         out = make_vec3(float(d.x * k), float(d.y * k), float(d.z * k));
       }
-      const bool near = inside || dist < double(s.coll.thickness);
-      if (!near && q.num_under == 0) s.clearance[i] = float(dist) - s.coll.thickness;
+      const bool near = inside || dist < double(offset);
+      if (!near && q.num_under == 0) s.clearance[i] = float(dist) - offset;
       if (near || q.num_under > 0) {
         const Vec3 before = xn;
         bool pushed = near, under = false;
         if (near) {
           const Vec3 surface = make_vec3(float(q.point.x), float(q.point.y), float(q.point.z));
-          xn = surface + out * s.coll.thickness;
+          xn = surface + out * offset;
         }
         // Pushed out of the nearest surface, the vertex may still be straight under another face it
         // was under (an outer layer): then out in front of that one too, and so on.
@@ -321,7 +329,7 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
             const DVec3 fpoint = a * fp.wa + b * fp.wb + c * fp.wc, fd = dvec(xn) - fpoint;
             const double depth = -ddot(fd, dvec(fn));
             if (!(depth > 0.0) || depth * depth < 0.999999 * ddot(fd, fd)) continue;  // in front, or not under it
-            xn = make_vec3(float(fpoint.x), float(fpoint.y), float(fpoint.z)) + fn * s.coll.thickness;
+            xn = make_vec3(float(fpoint.x), float(fpoint.y), float(fpoint.z)) + fn * offset;
             out = fn;
             q.prim = f, q.wa = fp.wa, q.wb = fp.wb, q.wc = fp.wc;
             t = s.geom.obstacle_indices + 3 * f;
