@@ -192,6 +192,11 @@ TEST(SceneErrors, UnknownField) {
   expect_parse_error(with_obstacle(R"({"type": "box", "radius": 1})"),
                      "test.json: /obstacles/0/radius: field 'radius' does not apply to obstacle type 'box'",
                      "/obstacles/0/radius");
+  expect_parse_error(with_obstacle(R"({"type": "uv_sphere", "close_holes": false})"),
+                     "test.json: /obstacles/0/close_holes: field 'close_holes' does not apply to obstacle type 'uv_sphere'",
+                     "/obstacles/0/close_holes");
+  expect_parse_error(with_obstacle(R"({"type": "mesh", "file": "x.obj", "close_holes": 1})"),
+                     "test.json: /obstacles/0/close_holes: expected true or false, got number", "/obstacles/0/close_holes");
 }
 
 TEST(SceneErrors, UnknownPanelAndEdge) {

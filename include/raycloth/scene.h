@@ -148,6 +148,10 @@ struct ObstacleDef {
   bool loop = true;
   std::optional<double> offset;
   double blend_in = 0.0;
+  // mesh and skinned: whether the step closes the mesh's openings (sim/holes: boundary loops small
+  // against their piece) so that cloth cannot slip into an open body part; outputs and the exact
+  // check see the mesh as it is.
+  bool close_holes = true;
   TransformDef transform;
   std::optional<MotionDef> motion;
 };

@@ -116,6 +116,9 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
   j["springs"] = {{"stretch", m.spring_counts[0]}, {"shear", m.spring_counts[1]}, {"bend", m.spring_counts[2]},
                   {"seam", m.spring_counts[3]}, {"total", m.springs.size()}};
   j["obstacle_triangles"] = sim.obstacles().world.num_triangles();
+  // Openings of the obstacles that the step closed (scene/holes.h): loops found, capped, triangles.
+  j["obstacle_holes"] = {{"found", sim.obstacles().holes_found}, {"capped", sim.obstacles().holes_capped},
+                         {"cap_triangles", sim.obstacles().cap_triangles}};
   j["dt"] = sim.scene().time.dt;
   j["fps"] = sim.scene().time.fps;
   // The cloth thickness (metres): `raycloth check DIR` reads it to tell pinches from failures.

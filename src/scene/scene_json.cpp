@@ -425,7 +425,7 @@ class Reader {
     ObstacleDef od;
     od.name = "obstacle" + std::to_string(index);
     object(j, ptr, {"name", "type", "radius", "slices", "stacks", "size", "file", "position", "rotation", "scale",
-                    "motion", "animation", "speed", "loop", "offset", "blend_in"});
+                    "motion", "animation", "speed", "loop", "offset", "blend_in", "close_holes"});
     std::string type_name;
     required(j, ptr, "type", [&](const json& v, const std::string& p) {
       od.type = obstacle_type(v, p);
@@ -444,6 +444,7 @@ class Reader {
     only_for("size", {ObstacleType::Box, ObstacleType::Plane});
     only_for("file", {ObstacleType::Mesh, ObstacleType::Skinned});
     for (const char* key : {"animation", "speed", "loop", "offset", "blend_in"}) only_for(key, {ObstacleType::Skinned});
+    only_for("close_holes", {ObstacleType::Mesh, ObstacleType::Skinned});
     if (od.type == ObstacleType::Skinned && j.contains("motion"))
       fail(ptr + "/motion", "field 'motion' does not apply to obstacle type 'skinned' (its animation moves it)");
     optional(j, ptr, "name", [&](const json& v, const std::string& p) { od.name = string(v, p); });
@@ -456,6 +457,7 @@ class Reader {
     optional(j, ptr, "loop", [&](const json& v, const std::string& p) { od.loop = boolean(v, p); });
     optional(j, ptr, "offset", [&](const json& v, const std::string& p) { od.offset = number(v, p); });
     optional(j, ptr, "blend_in", [&](const json& v, const std::string& p) { od.blend_in = number(v, p); });
+    optional(j, ptr, "close_holes", [&](const json& v, const std::string& p) { od.close_holes = boolean(v, p); });
     if (od.type == ObstacleType::Mesh || od.type == ObstacleType::Skinned)
       required(j, ptr, "file", [&](const json& v, const std::string& p) {
         const std::filesystem::path f = string(v, p);

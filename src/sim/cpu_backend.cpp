@@ -48,12 +48,12 @@ class CpuBackend final : public Backend {
     v_goal_ = x_goal_;
     x_mid_ = x_goal_;
     obstacles_.pose_at(0.0, obstacle_x_, obstacle_v_);
-    collider_->set_obstacles(obstacle_x_.data(), obstacle_x_.size(), obstacles_.world.indices.data(),
-                             obstacles_.world.num_triangles(), obstacles_.any_moving);
+    collider_->set_obstacles(obstacle_x_.data(), obstacle_x_.size(), obstacles_.collision_indices.data(),
+                             obstacles_.num_collision_triangles(), obstacles_.any_moving);
     collider_->set_cloth(n, model_.collision_triangles.data(), model_.tri_alias.data(), model_.num_collision_triangles(),
                          scene_.collision.cloth_cloth);
-    build_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.world.indices.data(),
-              uint32_t(obstacles_.world.num_triangles()));
+    build_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.collision_indices.data(),
+              uint32_t(obstacles_.num_collision_triangles()));
     build_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data(), model_.num_triangles());
   }
 
@@ -128,7 +128,7 @@ class CpuBackend final : public Backend {
       in.pod(b->built_area);
       b->builds = in.u32();
     }
-    if (obstacle_bvh_.num_prims != obstacles_.world.num_triangles() || cloth_bvh_.num_prims != model_.num_triangles())
+    if (obstacle_bvh_.num_prims != obstacles_.num_collision_triangles() || cloth_bvh_.num_prims != model_.num_triangles())
       in.fail("was written for other meshes");
     if (steps > 0) collider_->update_cloth(model_.initial_positions.data());
     if (obstacles_.any_moving) collider_->update_obstacles(obstacle_x_.data());
@@ -142,11 +142,11 @@ class CpuBackend final : public Backend {
       obstacle_prev_ = obstacle_x_;
       obstacles_.pose_at(double(step + 1) * scene_.time.dt, obstacle_x_, obstacle_v_);
       collider_->update_obstacles(obstacle_x_.data());
-      refit_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.world.indices.data());
+      refit_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.collision_indices.data());
       // A deforming (skinned) body can degrade the refit tree as the cloth's does.
       if (bvh_needs_rebuild(bvh_area(obstacle_bvh_.view()), obstacle_bvh_.built_area))
-        build_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.world.indices.data(),
-                  uint32_t(obstacles_.world.num_triangles()));
+        build_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.collision_indices.data(),
+                  uint32_t(obstacles_.num_collision_triangles()));
     }
     collider_->update_cloth(x_.data());
     // The cloth's proximity tree at x: where a body moves, the contact solve looks for pairs in it
@@ -251,7 +251,7 @@ class CpuBackend final : public Backend {
     s.model = model_.view();
     s.geom.obstacle_vertices = obstacle_x_.data();
     s.geom.obstacle_velocities = obstacles_.any_moving ? obstacle_v_.data() : nullptr;
-    s.geom.obstacle_indices = obstacles_.world.indices.data();
+    s.geom.obstacle_indices = obstacles_.collision_indices.data();
     s.geom.cloth_positions = x_.data();
     s.geom.cloth_velocities = v_.data();
     s.geom.cloth_indices = model_.collision_triangles.data();

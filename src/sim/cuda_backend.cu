@@ -380,7 +380,7 @@ class CudaBackend final : public Backend {
     obstacles_.pose_at(0.0, ox, ov);
     obstacle_x_ = DeviceBuffer<Vec3>(ox);
     obstacle_v_ = DeviceBuffer<Vec3>(ov);
-    obstacle_indices_ = DeviceBuffer<uint32_t>(obstacles_.world.indices);
+    obstacle_indices_ = DeviceBuffer<uint32_t>(obstacles_.collision_indices);
     if (obstacles_.any_moving) upload_moving_vertices();
     float reach = 0.0f;  // fastest obstacle point over the run's motions, per step
     for (const ObstacleDef& d : obstacles_.defs) {
@@ -393,7 +393,7 @@ class CudaBackend final : public Backend {
     // cudaMemcpy from pageable memory may return before the data has arrived: wait for it.
     CUDA_CHECK(cudaDeviceSynchronize());
 
-    obstacle_tree_.allocate(uint32_t(obstacles_.world.num_triangles()));
+    obstacle_tree_.allocate(uint32_t(obstacles_.num_collision_triangles()));
     obstacle_tree_.build(obstacle_x_.data(), obstacle_indices_.data(), stream_);
     cloth_.allocate(m.num_collision_triangles());
     cloth_.build(x_[0].data(), cloth_indices_.data(), stream_);

@@ -12,6 +12,7 @@
 #include "collide/proximity.h"
 #include "collide/rules.h"
 #include "raycloth/error.h"
+#include "collide/holes.h"
 #include "scene/pattern.h"
 #include "scene/transform.h"
 
@@ -762,6 +763,20 @@ ObstacleSet build_obstacles(const SceneDef& s) {
     if (od.motion || skinned) set.any_moving = true;
     set.skinned.push_back(std::move(skinned));
   }
+  set.collision_indices = set.world.indices;
+  for (size_t oi = 0; oi < set.defs.size(); ++oi) {
+    const ObstacleDef& od = set.defs[oi];
+    if (!od.close_holes || !(od.type == ObstacleType::Mesh || od.type == ObstacleType::Skinned)) continue;
+    // On the rest pose in world space: the same loops at every pose, since the caps reuse the loops'
+    // own vertices.
+    const uint32_t base = set.first_vertex[oi];
+    const TriMesh& local = set.local[oi];
+    const HoleCaps caps = cap_holes(local.vertices, local.indices, kHoleMaxShare);
+    for (uint32_t v : caps.indices) set.collision_indices.push_back(base + v);
+    set.holes_found += caps.loops;
+    set.holes_capped += caps.capped;
+  }
+  set.cap_triangles = uint32_t(set.collision_indices.size() - set.world.indices.size()) / 3u;
   return set;
 }
 

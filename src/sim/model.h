@@ -120,6 +120,12 @@ struct ObstacleSet {
   std::vector<ObstacleDef> defs;
   std::vector<std::shared_ptr<const SkinnedMesh>> skinned;  // per obstacle; null unless skinned
   bool any_moving = false;
+  // What the step collides with: world.indices, then the caps that close the openings of mesh and
+  // skinned obstacles (collide/holes.h; over world.vertices, so they move with the body). Outputs and
+  // the exact check use world.indices alone.
+  std::vector<uint32_t> collision_indices;
+  uint32_t holes_found = 0, holes_capped = 0, cap_triangles = 0;
+  uint32_t num_collision_triangles() const { return uint32_t(collision_indices.size() / 3); }
   // World-space vertices and per-vertex velocities at simulated time t.
   void pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec3>& velocities) const;
   // A skinned obstacle's joint matrices at simulated time t with its transform applied (`pose`), and
