@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "check/state_check.h"
+#include "sim/model_check.h"
 #include "raycloth/scene.h"
 #include "raycloth/simulator.h"
 

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <filesystem>
 
-#include "check/state_check.h"
+#include "sim/model_check.h"
 #include "fixtures.h"
 #include "raycloth/error.h"
 #include "raycloth/simulator.h"

@@ -11,7 +11,7 @@
 #include <sstream>
 #include <string>
 
-#include "check/state_check.h"
+#include "sim/model_check.h"
 #include "fixtures.h"
 #include "io/obj_writer.h"
 #include "raycloth/error.h"

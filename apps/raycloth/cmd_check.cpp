@@ -9,7 +9,7 @@
 #include <iostream>
 #include <memory>
 
-#include "check/state_check.h"
+#include "check/folder_check.h"
 #include "commands.h"
 
 namespace raycloth::cli {

@@ -37,7 +37,7 @@
 #include <vector>
 
 #include "check/exact_check.h"
-#include "check/state_check.h"
+#include "sim/model_check.h"
 #include "io/atomic_file.h"
 #include "raycloth/error.h"
 #include "raycloth/scene.h"

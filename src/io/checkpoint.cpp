@@ -55,8 +55,6 @@ uint64_t scene_fingerprint(const SceneDef& scene, const std::string& scene_text)
   return h;
 }
 
-void ByteReader::fail(const std::string& reason) const { throw InputError(file_, "", reason); }
-void ByteReader::fail_truncated() const { fail("is truncated or damaged; start the run again without --resume"); }
 
 void write_checkpoint(const std::filesystem::path& dir, const CheckpointHeader& header, const std::string& state) {
   ByteWriter w;

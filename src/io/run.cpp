@@ -12,7 +12,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "check/state_check.h"
+#include "sim/model_check.h"
 #include "io/atomic_file.h"
 #include "io/checkpoint.h"
 #include "io/gltf_writer.h"

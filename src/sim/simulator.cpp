@@ -5,8 +5,8 @@
 
 #include <algorithm>
 
-#include "check/state_check.h"
-#include "io/checkpoint.h"
+#include "sim/model_check.h"
+#include "core/bytes.h"
 #include "raycloth/error.h"
 #include "sim/backend.h"
 #include "sim/model.h"
