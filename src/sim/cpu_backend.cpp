@@ -10,8 +10,9 @@
 
 #include "collide/bvh.h"
 #include "collide/cpu/embree_collider.h"
-#include "io/checkpoint.h"
+#include "core/bytes.h"
 #include "sim/backend.h"
+#include "sim/state.h"
 #include "sim/step.h"
 
 namespace raycloth {
@@ -24,29 +25,8 @@ constexpr uint32_t kGrain = 256;
 class CpuBackend final : public Backend {
  public:
   CpuBackend(const BackendInput& in, std::unique_ptr<Collider> collider)
-      : scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), collider_(std::move(collider)) {
+      : scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), collider_(std::move(collider)), st_(model_) {
     const uint32_t n = model_.num_vertices();
-    x_ = model_.initial_positions;
-    v_.assign(n, make_vec3(0, 0, 0));
-    x_next_ = x_;
-    v_next_ = v_;
-    rays_.resize(n);
-    hits_.resize(n);
-    contacts_.resize(n);
-    contact_normal_.assign(n, make_vec3(0, 0, 0));
-    bound_.assign(n, 0u);  // allowance 0: the first step that moves anything refreshes the bound
-    bound_radius_.assign(n, 0.0f);
-    x_ref_ = x_;
-    flags_.assign(n, 0u);
-    pairs_.resize(size_t(n) * kVertexPairs + size_t(model_.num_edges()) * kEdgePairs);
-    pair_list_.resize(pairs_.size());
-    push_.assign(n, FixedVec3());
-    push_count_.assign(n, 0u);
-    clearance_.assign(n, 0.0f);
-    contact_shift_.assign(n, 0.0f);
-    x_goal_.assign(n, make_vec3(0, 0, 0));
-    v_goal_ = x_goal_;
-    x_mid_ = x_goal_;
     obstacles_.pose_at(0.0, obstacle_x_, obstacle_v_);
     collider_->set_obstacles(obstacle_x_.data(), obstacle_x_.size(), obstacles_.collision_indices.data(),
                              obstacles_.num_collision_triangles(), obstacles_.any_moving);
@@ -54,7 +34,7 @@ class CpuBackend final : public Backend {
                          scene_.collision.cloth_cloth);
     build_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.collision_indices.data(),
               uint32_t(obstacles_.num_collision_triangles()));
-    build_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data(), model_.num_triangles());
+    build_bvh(cloth_bvh_, x().data(), model_.collision_triangles.data(), model_.num_triangles());
   }
 
   std::string name() const override { return "cpu"; }
@@ -65,16 +45,16 @@ class CpuBackend final : public Backend {
   }
 
   void download(std::vector<Vec3>& x, std::vector<Vec3>& v) override {
-    x = x_;
-    v = v_;
+    x = st_.x[st_.cur];
+    v = st_.v[st_.cur];
   }
 
   bool download_balls(std::vector<Vec3>& centre, std::vector<float>& radius) override {
-    centre = x_ref_;
-    radius.resize(x_ref_.size());
+    centre = st_.x_ref;
+    radius.resize(st_.x_ref.size());
     StepView s;
-    s.bound = bound_.data();
-    s.bound_radius = bound_radius_.data();
+    s.bound = st_.bound.data();
+    s.bound_radius = st_.bound_radius.data();
     for (uint32_t i = 0; i < radius.size(); ++i) radius[i] = allowance_of(s, i);
     return true;
   }
@@ -83,16 +63,18 @@ class CpuBackend final : public Backend {
 
   void save(ByteWriter& out) override {
     out.u64(model_.num_vertices());
-    for (const auto* v : {&x_, &v_, &x_next_, &v_next_, &contact_normal_, &x_ref_, &obstacle_x_, &obstacle_v_, &obstacle_prev_})
+    const int c = st_.cur, nx = c ^ 1;
+    for (const auto* v : {&st_.x[c], &st_.v[c], &st_.x[nx], &st_.v[nx], &st_.contact_normal, &st_.x_ref, &obstacle_x_,
+                          &obstacle_v_, &obstacle_prev_})
       out.vec(*v);
-    out.vec(rays_);
-    out.vec(hits_);
-    out.vec(contacts_);
-    out.vec(bound_);
-    out.vec(flags_);
-    out.vec(bound_radius_);
-    out.pod(counters_);
-    out.u32(bound_age_);
+    out.vec(st_.rays);
+    out.vec(st_.hits);
+    out.vec(st_.contacts);
+    out.vec(st_.bound);
+    out.vec(st_.flags);
+    out.vec(st_.bound_radius);
+    out.pod(st_.counters[0]);
+    out.u32(st_.bound_age[0]);
     for (const HostBvh* b : {&obstacle_bvh_, &cloth_bvh_}) {
       out.u32(b->num_prims);
       for (const auto* v : {&b->child, &b->parent, &b->prim, &b->counter}) out.vec(*v);
@@ -108,19 +90,20 @@ class CpuBackend final : public Backend {
   void restore(ByteReader& in, uint64_t steps) override {
     const size_t n = model_.num_vertices();
     if (in.u64() != n) in.fail("was written for a cloth of another size");
-    for (auto* v : {&x_, &v_, &x_next_, &v_next_, &contact_normal_, &x_ref_}) in.vec(*v, n, "cloth vertices");
+    const int c = st_.cur, nx = c ^ 1;
+    for (auto* v : {&st_.x[c], &st_.v[c], &st_.x[nx], &st_.v[nx], &st_.contact_normal, &st_.x_ref}) in.vec(*v, n, "cloth vertices");
     const size_t no = obstacles_.world.vertices.size();
     in.vec(obstacle_x_, no, "obstacle vertices");
     in.vec(obstacle_v_, no, "obstacle vertices");
     in.vec(obstacle_prev_);
-    in.vec(rays_, n, "rays");
-    in.vec(hits_, n, "hits");
-    in.vec(contacts_, n, "contacts");
-    in.vec(bound_, n, "bounds");
-    in.vec(flags_, n, "flags");
-    in.vec(bound_radius_, n, "bound radii");
-    in.pod(counters_);
-    bound_age_ = in.u32();
+    in.vec(st_.rays, n, "rays");
+    in.vec(st_.hits, n, "hits");
+    in.vec(st_.contacts, n, "contacts");
+    in.vec(st_.bound, n, "bounds");
+    in.vec(st_.flags, n, "flags");
+    in.vec(st_.bound_radius, n, "bound radii");
+    in.pod(st_.counters[0]);
+    st_.bound_age[0] = in.u32();
     for (HostBvh* b : {&obstacle_bvh_, &cloth_bvh_}) {
       b->num_prims = in.u32();
       for (auto* v : {&b->child, &b->parent, &b->prim, &b->counter}) in.vec(*v);
@@ -148,11 +131,11 @@ class CpuBackend final : public Backend {
         build_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.collision_indices.data(),
                   uint32_t(obstacles_.num_collision_triangles()));
     }
-    collider_->update_cloth(x_.data());
+    collider_->update_cloth(x().data());
     // The cloth's proximity tree at x: where a body moves, the contact solve looks for pairs in it
     // every step; otherwise only the bound's refreshes need it (refit_cloth).
     if (obstacles_.any_moving) refit_cloth_tree();
-    counters_ = StepCounters();
+    st_.counters[0] = StepCounters();
     StepView s = view(step);
     add_time(Stage::Update, t);
     return s;
@@ -219,19 +202,16 @@ class CpuBackend final : public Backend {
   }
 
   void refit_cloth_tree() {
-    refit_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data());
+    refit_bvh(cloth_bvh_, x().data(), model_.collision_triangles.data());
     if (bvh_needs_rebuild(bvh_area(cloth_bvh_.view()), cloth_bvh_.built_area))
-      build_bvh(cloth_bvh_, x_.data(), model_.collision_triangles.data(), model_.num_triangles());
+      build_bvh(cloth_bvh_, x().data(), model_.collision_triangles.data(), model_.num_triangles());
   }
 
   uint32_t peek(const uint32_t* slot, uint32_t) const { return *slot; }
 
-  const StepCounters& counters() const { return counters_; }
+  const StepCounters& counters() const { return st_.counters[0]; }
 
-  void end() {
-    std::swap(x_, x_next_);
-    std::swap(v_, v_next_);
-  }
+  void end() { st_.flip(); }
 
  private:
   void add_time(Stage stage, Clock::time_point since) {
@@ -252,37 +232,13 @@ class CpuBackend final : public Backend {
     s.geom.obstacle_vertices = obstacle_x_.data();
     s.geom.obstacle_velocities = obstacles_.any_moving ? obstacle_v_.data() : nullptr;
     s.geom.obstacle_indices = obstacles_.collision_indices.data();
-    s.geom.cloth_positions = x_.data();
-    s.geom.cloth_velocities = v_.data();
     s.geom.cloth_indices = model_.collision_triangles.data();
-    s.x = x_.data();
-    s.v = v_.data();
-    s.x_next = x_next_.data();
-    s.v_next = v_next_.data();
-    s.rays = rays_.data();
-    s.hits = hits_.data();
-    s.contacts = contacts_.data();
-    s.contact_normal = contact_normal_.data();
-    s.bound = bound_.data();
-    s.bound_radius = bound_radius_.data();
-    s.x_ref = x_ref_.data();
-    s.bound_age = &bound_age_;
+    st_.wire(s);
     s.mean_edge = model_.mean_edge;
-    s.flags = flags_.data();
-    s.pairs = pairs_.data();
-    s.pair_list = pair_list_.data();
-    s.clearance = clearance_.data();
-    s.contact_shift = contact_shift_.data();
-    s.x_goal = x_goal_.data();
-    s.v_goal = v_goal_.data();
-    s.x_mid = x_mid_.data();
-    s.push = push_.data();
-    s.push_count = push_count_.data();
     s.cloth_contact = scene_.collision.cloth_cloth;
     s.obstacle_bvh = obstacle_bvh_.view();
     s.cloth_bvh = cloth_bvh_.view();
     s.obstacle_reach = obstacle_reach();
-    s.counters = &counters_;
     return s;
   }
 
@@ -299,23 +255,12 @@ class CpuBackend final : public Backend {
   const ClothModel& model_;
   const ObstacleSet& obstacles_;
   std::unique_ptr<Collider> collider_;
-  std::vector<Vec3> x_, v_, x_next_, v_next_, contact_normal_, x_ref_;
+  SimState<HostArray> st_;
   std::vector<Vec3> obstacle_x_, obstacle_v_, obstacle_prev_;
-  std::vector<Ray> rays_;
-  std::vector<RawHit> hits_;
-  std::vector<Contact> contacts_;
-  std::vector<uint32_t> bound_, flags_;
-  std::vector<float> bound_radius_;
-  std::vector<ContactPair> pairs_;
-  std::vector<uint32_t> pair_list_;
-  std::vector<float> clearance_, contact_shift_;
-  std::vector<Vec3> x_goal_, v_goal_, x_mid_;
-  std::vector<FixedVec3> push_;
-  std::vector<uint32_t> push_count_;
   HostBvh obstacle_bvh_, cloth_bvh_;
-  StepCounters counters_;
-  uint32_t bound_age_ = 0;
   StageTimes* times_ = nullptr;
+
+  const std::vector<Vec3>& x() const { return st_.x[st_.cur]; }
 };
 
 }  // namespace

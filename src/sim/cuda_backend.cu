@@ -5,7 +5,6 @@
 // step is the small StepCounters read back after it (blow-up detection). docs/gpu.md.
 #include <cub/block/block_reduce.cuh>
 
-#include <chrono>
 #include <cstddef>
 #include <string>
 #include <utility>
@@ -17,6 +16,7 @@
 #include "raycloth/error.h"
 #include "sim/backend.h"
 #include "sim/cuda_pose.cuh"
+#include "sim/state.h"
 #include "sim/step.h"
 
 namespace raycloth {
@@ -201,6 +201,7 @@ class CudaBackend final : public Backend {
   ~CudaBackend() override {
     // Nothing here may throw: errors are ignored while tearing down.
     if (stream_) cudaStreamSynchronize(stream_);
+    for (cudaEvent_t e : events_) cudaEventDestroy(e);
     if (counters_host_) cudaFreeHost(counters_host_);
     if (stream_) cudaStreamDestroy(stream_);
   }
@@ -212,10 +213,8 @@ class CudaBackend final : public Backend {
     if (n <= 0) return result;
     if (obstacles_.any_moving) upload_poses(n, first_step);
     call_first_ = first_step;
-    const auto t = std::chrono::steady_clock::now();
+    times_ = &times;
     result = run_steps(*this, n, first_step);
-    // Stages overlap on the device; their sum is reported under integrate.
-    times.integrate += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     return result;
   }
 
@@ -223,14 +222,34 @@ class CudaBackend final : public Backend {
     const size_t n = model_.num_vertices();
     x.resize(n);
     v.resize(n);
-    CUDA_CHECK(cudaMemcpyAsync(x.data(), x_[cur_].data(), n * sizeof(Vec3), cudaMemcpyDeviceToHost, stream_));
-    CUDA_CHECK(cudaMemcpyAsync(v.data(), v_[cur_].data(), n * sizeof(Vec3), cudaMemcpyDeviceToHost, stream_));
+    CUDA_CHECK(cudaMemcpyAsync(x.data(), st_->x[st_->cur].data(), n * sizeof(Vec3), cudaMemcpyDeviceToHost, stream_));
+    CUDA_CHECK(cudaMemcpyAsync(v.data(), st_->v[st_->cur].data(), n * sizeof(Vec3), cudaMemcpyDeviceToHost, stream_));
     CUDA_CHECK(cudaStreamSynchronize(stream_));
+  }
+
+  // The balls of the displacement bound: centres and allowances, computed on the host from the
+  // device's arrays (as the CPU backend does from its own).
+  bool download_balls(std::vector<Vec3>& centre, std::vector<float>& radius) override {
+    const size_t n = model_.num_vertices();
+    std::vector<uint32_t> bound(n);
+    std::vector<float> bound_radius(n);
+    centre.resize(n);
+    radius.resize(n);
+    CUDA_CHECK(cudaMemcpyAsync(centre.data(), st_->x_ref.data(), n * sizeof(Vec3), cudaMemcpyDeviceToHost, stream_));
+    CUDA_CHECK(cudaMemcpyAsync(bound.data(), st_->bound.data(), n * sizeof(uint32_t), cudaMemcpyDeviceToHost, stream_));
+    CUDA_CHECK(cudaMemcpyAsync(bound_radius.data(), st_->bound_radius.data(), n * sizeof(float), cudaMemcpyDeviceToHost, stream_));
+    CUDA_CHECK(cudaStreamSynchronize(stream_));
+    StepView s;
+    s.bound = bound.data();
+    s.bound_radius = bound_radius.data();
+    for (uint32_t i = 0; i < n; ++i) radius[i] = allowance_of(s, i);
+    return true;
   }
 
   // ---- The executor of sim/step.h ----
 
   StepView begin(uint64_t step) {
+    mark(Stage::Update);
     step_reach_ = obstacle_reach_;
     if (obstacles_.any_moving) {
       PoseView p;
@@ -258,33 +277,37 @@ class CudaBackend final : public Backend {
       }
     }
     refit_cloth_tree();
-    k_reset_counters<<<1, 1, 0, stream_>>>(counters_.data());
+    k_reset_counters<<<1, 1, 0, stream_>>>(st_->counters.data());
     CUDA_CHECK_LAUNCH();
     return view(step);
   }
 
   template <class F>
-  void for_each(Stage, uint32_t n, F f) {
+  void for_each(Stage stage, uint32_t n, F f) {
     if (n == 0) return;
+    mark(stage);
     k_for_each<<<grid_for(n), kBlock, 0, stream_>>>(n, f);
     CUDA_CHECK_LAUNCH();
   }
 
   template <class F>
-  void sum(Stage, uint32_t n, F f, uint32_t* slot) {
+  void sum(Stage stage, uint32_t n, F f, uint32_t* slot) {
     if (n == 0) return;
+    mark(stage);
     k_sum<<<grid_for(n), kBlock, 0, stream_>>>(n, f, slot);
     CUDA_CHECK_LAUNCH();
   }
 
   template <class F>
-  void first(Stage, uint32_t n, F f, uint32_t* slot) {
+  void first(Stage stage, uint32_t n, F f, uint32_t* slot) {
     if (n == 0) return;
+    mark(stage);
     k_first<<<grid_for(n), kBlock, 0, stream_>>>(n, f, slot);
     CUDA_CHECK_LAUNCH();
   }
 
   void cast(const Ray* rays, uint32_t n, RawHit* hits) {
+    mark(Stage::Cast);
     k_trace<<<grid_for(n), kBlock, 0, stream_>>>(trace_scene(), rays, hits, n);
     CUDA_CHECK_LAUNCH();
   }
@@ -298,29 +321,66 @@ class CudaBackend final : public Backend {
 
   // The step's counters, copied back after it (pinned memory): the only transfer per step.
   const StepCounters& counters() {
-    CUDA_CHECK(cudaMemcpyAsync(counters_host_, counters_.data(), sizeof(StepCounters), cudaMemcpyDeviceToHost, stream_));
+    mark(Stage::Update, true);  // closes the step's last stage (the copy below is not timed)
+    CUDA_CHECK(cudaMemcpyAsync(counters_host_, st_->counters.data(), sizeof(StepCounters), cudaMemcpyDeviceToHost, stream_));
     CUDA_CHECK(cudaStreamSynchronize(stream_));
+    book_times();
     return *counters_host_;
   }
 
   // A further pass of the bound: the tree refit at the pass's start. Run whether or not the pass is
   // active (the flag is on the device); the next step's begin() refits it at x again.
   void refit_cloth_at(const Vec3* x, const StepCounters*) {
+    mark(Stage::Update);
     if (cloth_.num_prims() > 0) cloth_.refit(x, cloth_indices_.data(), stream_);
   }
 
-  void end() { cur_ ^= 1; }
+  void end() { st_->flip(); }
 
  private:
+  // Per-stage timing, the same stages as the CPU's: an event is recorded on the stream where the
+  // step moves from one stage to another, and once the step's counters have come back (the stream
+  // has drained) the GPU time between consecutive events is booked to the stage that began at the
+  // first. The events are reused from step to step.
+  void mark(Stage stage, bool close = false) {
+    if (!close && used_ > 0 && stage == event_stage_[used_ - 1]) return;
+    if (used_ == events_.size()) {
+      cudaEvent_t e;
+      CUDA_CHECK(cudaEventCreate(&e));
+      events_.push_back(e);
+      event_stage_.push_back(stage);
+    }
+    event_stage_[used_] = stage;
+    CUDA_CHECK(cudaEventRecord(events_[used_], stream_));
+    ++used_;
+  }
+
+  void book_times() {
+    for (size_t k = 0; k + 1 < used_; ++k) {
+      float ms = 0.0f;
+      CUDA_CHECK(cudaEventElapsedTime(&ms, events_[k], events_[k + 1]));
+      const double s = double(ms) * 1e-3;
+      switch (event_stage_[k]) {
+        case Stage::Integrate: times_->integrate += s; break;
+        case Stage::Update: times_->update += s; break;
+        case Stage::Cast: times_->cast += s; break;
+        case Stage::Respond: times_->respond += s; break;
+        case Stage::Contact: times_->contact += s; break;
+        case Stage::Bound: times_->bound += s; break;
+      }
+    }
+    used_ = 0;
+  }
+
   // The cloth tree is refit every step and rebuilt every kRebuildEvery steps (the CPU rebuilds on
   // the area trigger; the GPU avoids reading the area back inside a call).
   static constexpr int kRebuildEvery = 256;
 
   void refit_cloth_tree() {
     if (cloth_.num_prims() == 0) return;
-    cloth_.refit(x_[cur_].data(), cloth_indices_.data(), stream_);
+    cloth_.refit(st_->x[st_->cur].data(), cloth_indices_.data(), stream_);
     if (++refits_since_build_ >= kRebuildEvery) {
-      cloth_.build(x_[cur_].data(), cloth_indices_.data(), stream_);
+      cloth_.build(st_->x[st_->cur].data(), cloth_indices_.data(), stream_);
       refits_since_build_ = 0;
     }
   }
@@ -350,31 +410,7 @@ class CudaBackend final : public Backend {
     attach_k_ = DeviceBuffer<float>(m.attach_k);
     attach_kd_ = DeviceBuffer<float>(m.attach_kd);
 
-    const std::vector<Vec3> zero(n, make_vec3(0, 0, 0));
-    for (int b = 0; b < 2; ++b) {
-      x_[b] = DeviceBuffer<Vec3>(m.initial_positions);
-      v_[b] = DeviceBuffer<Vec3>(zero);
-    }
-    contact_normal_ = DeviceBuffer<Vec3>(zero);
-    rays_.resize(n);
-    hits_.resize(n);
-    contacts_.resize(n);
-    // Allowance 0 everywhere: the first step that moves anything recomputes the bound.
-    bound_ = DeviceBuffer<uint32_t>(std::vector<uint32_t>(n, 0u));
-    bound_radius_ = DeviceBuffer<float>(std::vector<float>(n, 0.0f));
-    x_ref_ = DeviceBuffer<Vec3>(m.initial_positions);
-    bound_age_ = DeviceBuffer<uint32_t>(std::vector<uint32_t>(1, 0u));
-    flags_ = DeviceBuffer<uint32_t>(std::vector<uint32_t>(n, 0u));
-    pairs_.resize(size_t(n) * kVertexPairs + size_t(model_.num_edges()) * kEdgePairs);
-    pair_list_.resize(pairs_.size());
-    clearance_.resize(n);
-    contact_shift_.resize(n);
-    x_goal_.resize(n);
-    v_goal_.resize(n);
-    x_mid_.resize(n);
-    push_ = DeviceBuffer<FixedVec3>(std::vector<FixedVec3>(n));
-    push_count_ = DeviceBuffer<uint32_t>(std::vector<uint32_t>(n, 0u));
-    counters_ = DeviceBuffer<StepCounters>(std::vector<StepCounters>(1));
+    st_ = std::make_unique<SimState<DeviceBuffer>>(m);
 
     std::vector<Vec3> ox, ov;
     obstacles_.pose_at(0.0, ox, ov);
@@ -396,7 +432,7 @@ class CudaBackend final : public Backend {
     obstacle_tree_.allocate(uint32_t(obstacles_.num_collision_triangles()));
     obstacle_tree_.build(obstacle_x_.data(), obstacle_indices_.data(), stream_);
     cloth_.allocate(m.num_collision_triangles());
-    cloth_.build(x_[0].data(), cloth_indices_.data(), stream_);
+    cloth_.build(st_->x[st_->cur].data(), cloth_indices_.data(), stream_);
     CUDA_CHECK(cudaStreamSynchronize(stream_));
   }
 
@@ -435,7 +471,6 @@ class CudaBackend final : public Backend {
   }
 
   StepView view(uint64_t step) {
-    const int cur = cur_, next = cur_ ^ 1;
     StepView s = step_view_for(scene_, model_, step);
     s.model.num_vertices = model_.num_vertices();
     s.model.inv_mass = inv_mass_.data();
@@ -465,37 +500,13 @@ class CudaBackend final : public Backend {
     s.geom.obstacle_vertices = obstacle_x_.data();
     s.geom.obstacle_velocities = obstacles_.any_moving ? obstacle_v_.data() : nullptr;
     s.geom.obstacle_indices = obstacle_indices_.data();
-    s.geom.cloth_positions = x_[cur].data();
-    s.geom.cloth_velocities = v_[cur].data();
     s.geom.cloth_indices = cloth_indices_.data();
-    s.x = x_[cur].data();
-    s.v = v_[cur].data();
-    s.x_next = x_[next].data();
-    s.v_next = v_[next].data();
-    s.rays = rays_.data();
-    s.hits = hits_.data();
-    s.contacts = contacts_.data();
-    s.contact_normal = contact_normal_.data();
-    s.bound = bound_.data();
-    s.bound_radius = bound_radius_.data();
-    s.x_ref = x_ref_.data();
-    s.bound_age = bound_age_.data();
+    st_->wire(s);
     s.mean_edge = model_.mean_edge;
-    s.flags = flags_.data();
-    s.pairs = pairs_.data();
-    s.pair_list = pair_list_.data();
-    s.clearance = clearance_.data();
-    s.contact_shift = contact_shift_.data();
-    s.x_goal = x_goal_.data();
-    s.v_goal = v_goal_.data();
-    s.x_mid = x_mid_.data();
-    s.push = push_.data();
-    s.push_count = push_count_.data();
     s.cloth_contact = scene_.collision.cloth_cloth;
     s.obstacle_bvh = obstacle_tree_.view();
     s.cloth_bvh = cloth_.view();
     s.obstacle_reach = step_reach_;
-    s.counters = counters_.data();
     return s;
   }
 
@@ -505,7 +516,7 @@ class CudaBackend final : public Backend {
     b.obstacle_vertices = obstacle_x_.data();
     b.obstacle_indices = obstacle_indices_.data();
     if (scene_.collision.cloth_cloth) b.cloth = cloth_.view();
-    b.cloth_positions = x_[cur_].data();
+    b.cloth_positions = st_->x[st_->cur].data();
     b.cloth_indices = cloth_indices_.data();
     b.tri_alias = tri_alias_.data();
     return b;
@@ -516,7 +527,6 @@ class CudaBackend final : public Backend {
   const ObstacleSet& obstacles_;
   cudaStream_t stream_ = nullptr;
   StepCounters* counters_host_ = nullptr;  // pinned
-  int cur_ = 0;                            // x_[cur_] holds the state at the current time
   int refits_since_build_ = 0;
   uint64_t call_first_ = 0;
   float obstacle_reach_ = 0;  // rigid motions: the fastest point's move in a step
@@ -531,20 +541,11 @@ class CudaBackend final : public Backend {
   DeviceBuffer<uint32_t> attach_slot_, attach_tri_;
   DeviceBuffer<Vec3> attach_bary_, attach_offset_;
   static const float* m_has_(const DeviceBuffer<float>& b) { return b.size() > 0 ? b.data() : nullptr; }
-  DeviceBuffer<Vec3> x_[2], v_[2], contact_normal_;
-  DeviceBuffer<Ray> rays_;
-  DeviceBuffer<RawHit> hits_;
-  DeviceBuffer<Contact> contacts_;
-  DeviceBuffer<uint32_t> bound_, flags_, bound_age_;
-  DeviceBuffer<float> bound_radius_;
-  DeviceBuffer<Vec3> x_ref_;
-  DeviceBuffer<ContactPair> pairs_;
-  DeviceBuffer<uint32_t> pair_list_;
-  DeviceBuffer<float> clearance_, contact_shift_;
-  DeviceBuffer<Vec3> x_goal_, v_goal_, x_mid_;
-  DeviceBuffer<FixedVec3> push_;
-  DeviceBuffer<uint32_t> push_count_;
-  DeviceBuffer<StepCounters> counters_;
+  std::unique_ptr<SimState<DeviceBuffer>> st_;
+  StageTimes* times_ = nullptr;
+  std::vector<cudaEvent_t> events_;  // stage boundaries of the step in flight (mark, book_times)
+  std::vector<Stage> event_stage_;
+  size_t used_ = 0;  // allocated in upload(), once the stream exists
   DeviceBuffer<Vec3> obstacle_x_, obstacle_v_;
   DeviceBuffer<uint32_t> obstacle_indices_;
   std::vector<size_t> moving_;  // obstacle index of each moving obstacle

@@ -17,9 +17,10 @@
 // A step is five named phases (run_step): integrate, respond, contact (sim/contact.h), bound
 // (sim/bound.h) and finish; run_steps runs n of them with the counters and the blow-up stop.
 //
-// The CPU executor runs oneTBB loops and casts with Embree (or the host BVH in tests); the CUDA
-// executor launches kernels into one graph. The lambdas only capture the StepView (plain pointers)
-// and read the counters from the backend's memory, so nothing returns to the host inside a step.
+// The state both executors step is one type (sim/state.h). The CPU executor runs oneTBB loops and
+// casts with Embree (or the host BVH in tests); the CUDA executor launches kernels on one stream.
+// The lambdas only capture the StepView (plain pointers) and read the counters from the backend's
+// memory, so nothing returns to the host inside a step. Both time the same stages (Stage).
 #pragma once
 #include <cstdint>
 
@@ -81,7 +82,7 @@ void run_contact_solve(Exec& ex, const StepView& s) {
 }
 
 // Further passes of the bound after the first clamp, while a pushed vertex is held back (see
-// kBoundPasses in sim/stages.h): each a full refresh at where the last clamp left the cloth, then
+// kBoundPasses in sim/bound.h): each a full refresh at where the last clamp left the cloth, then
 // the clamp along the rest of the move.
 template <class Exec>
 void run_bound_passes(Exec& ex, const StepView& s) {
