@@ -11,10 +11,18 @@ namespace raycloth {
 
 using Float3 = std::array<float, 3>;
 
+enum class Integrator { Explicit, Implicit };
+
 struct TimeDef {
   double dt = 4e-4;        // seconds per step
   double duration = 3.0;   // simulated seconds
   double fps = 30.0;       // output frames per simulated second
+  // The paper's explicit Euler (eq. 3; dt below its stability limit), or implicit Euler by vertex
+  // block descent (sim/physics.h: stable at any dt), with its sweeps per step and the largest last
+  // sweep's step (metres) counted as converged.
+  Integrator integrator = Integrator::Explicit;
+  int iterations = 10;
+  double tolerance = 1e-4;
 };
 
 struct CollisionDef {

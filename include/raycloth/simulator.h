@@ -79,6 +79,12 @@ class Simulator {
   uint64_t contact_pairs() const { return contact_pairs_total_; }
   uint64_t contact_moved() const { return contact_moved_total_; }
   uint64_t contact_rounds() const { return contact_rounds_total_; }
+  // Further passes of the displacement bound, summed over all steps.
+  uint64_t bound_passes() const { return bound_passes_total_; }
+  // The implicit integrator (time.integrator "implicit"): steps whose last sweep still moved a
+  // vertex more than time.tolerance, and the largest such last-sweep step (metres).
+  uint64_t unconverged_steps() const { return unconverged_total_; }
+  double max_residual() const { return max_residual_; }
   const StageTimes& stage_times() const { return times_; }
 
   // Checkpoints (io/checkpoint.h): the whole state after steps(), so that a Simulator built from the
@@ -96,7 +102,8 @@ class Simulator {
   bool synced_ = true;
   uint64_t steps_ = 0, last_hits_ = 0, pushed_total_ = 0, clamped_total_ = 0, conflicts_total_ = 0, refreshes_total_ = 0;
   uint64_t partial_refreshes_total_ = 0, contact_pairs_total_ = 0, contact_moved_total_ = 0, contact_rounds_total_ = 0;
-  uint64_t push_clamped_total_ = 0;
+  uint64_t push_clamped_total_ = 0, bound_passes_total_ = 0, unconverged_total_ = 0;
+  double max_residual_ = 0;
   StageTimes times_;
 };
 

@@ -153,7 +153,17 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
                   {"bound_partial_refreshes", sim.bound_partial_refreshes()},
                   {"cloth_contact_pairs", sim.contact_pairs()},
                   {"moved_by_contact_solve", sim.contact_moved()},
-                  {"contact_solve_rounds", sim.contact_rounds()}};
+                  {"contact_solve_rounds", sim.contact_rounds()},
+                  {"bound_passes", sim.bound_passes()}};
+  // The integrator, and for the implicit one its convergence: the sweeps per step, the tolerance on
+  // the last sweep's largest step, the steps that did not reach it and the largest such step.
+  const TimeDef& td = sim.scene().time;
+  if (td.integrator == Integrator::Implicit)
+    j["integrator"] = {{"name", "implicit"},           {"method", "implicit Euler, vertex block descent"},
+                       {"iterations", td.iterations},  {"tolerance", td.tolerance},
+                       {"unconverged_steps", sim.unconverged_steps()}, {"max_residual", sim.max_residual()}};
+  else
+    j["integrator"] = {{"name", "explicit"}, {"method", "explicit Euler, eq. (3)"}};
   if (r.check.enabled) {
     j["check"] = {{"method", "exact: every cloth edge against every cloth triangle sharing no vertex (CGAL filtered "
                              "exact orientation predicates); every cloth vertex against every obstacle (closed: "
@@ -371,6 +381,13 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
     write_file_atomically(opt.out_dir / "timing.json", [&](std::ostream& out) { out << t.dump(2) << "\n"; });
     write_run_summary(opt.out_dir / "summary.png", report);
   };
+  // The implicit integrator says so when its sweeps did not converge (once, at the end).
+  auto warn_unconverged = [&] {
+    if (scene.time.integrator != Integrator::Implicit || sim.unconverged_steps() == 0) return;
+    spdlog::warn("the implicit integrator did not converge in {} of {} steps: its last sweep still moved a vertex up to "
+                 "{:.3g} m (time.tolerance {:g} m); raise time.iterations or lower time.dt",
+                 sim.unconverged_steps(), sim.steps(), sim.max_residual(), scene.time.tolerance);
+  };
 
   // After frame `done`: the state, the report so far and the sinks' own state.
   auto save_checkpoint = [&](int done) {
@@ -460,6 +477,7 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
   for (auto& s : sinks) s->end(sim);
   write_report();
   remove_checkpoint();
+  warn_unconverged();
   return report;
 }
 

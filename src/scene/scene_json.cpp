@@ -201,7 +201,18 @@ class Reader {
 
   TimeDef time(const json& j, const std::string& ptr) const {
     TimeDef t;
-    object(j, ptr, {"dt", "duration", "fps"});
+    object(j, ptr, {"dt", "duration", "fps", "integrator", "iterations", "tolerance"});
+    optional(j, ptr, "integrator", [&](const json& v, const std::string& p) {
+      const std::string name = string(v, p);
+      if (name == "explicit") t.integrator = Integrator::Explicit;
+      else if (name == "implicit") t.integrator = Integrator::Implicit;
+      else fail(p, "unknown integrator '" + name + "' (expected 'explicit' or 'implicit')");
+    });
+    if (t.integrator == Integrator::Explicit)
+      for (const char* key : {"iterations", "tolerance"})
+        if (j.contains(key)) fail(ptr + "/" + key, std::string("field '") + key + "' applies to the implicit integrator only");
+    optional(j, ptr, "iterations", [&](const json& v, const std::string& p) { t.iterations = integer(v, p); });
+    optional(j, ptr, "tolerance", [&](const json& v, const std::string& p) { t.tolerance = number(v, p); });
     optional(j, ptr, "dt", [&](const json& v, const std::string& p) { t.dt = number(v, p); });
     optional(j, ptr, "duration", [&](const json& v, const std::string& p) { t.duration = number(v, p); });
     optional(j, ptr, "fps", [&](const json& v, const std::string& p) { t.fps = number(v, p); });
@@ -615,6 +626,9 @@ void validate_scene(const SceneDef& s) {
   auto idx = [](const char* list, size_t i) { return std::string("/") + list + "/" + std::to_string(i); };
 
   positive(s.time.dt, "/time/dt");
+  if (s.time.iterations < 1 || s.time.iterations > 1000)
+    fail("/time/iterations", "must be between 1 and 1000 (got " + std::to_string(s.time.iterations) + ")");
+  positive(s.time.tolerance, "/time/tolerance");
   positive(s.time.duration, "/time/duration");
   positive(s.time.fps, "/time/fps");
   finite3(s.gravity, "/gravity");

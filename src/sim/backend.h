@@ -55,6 +55,9 @@ inline StepView step_view_for(const SceneDef& scene, const ClothModel& model, ui
   s.coll.thickness = scene.collision.thickness;
   s.coll.friction = scene.collision.friction;
   s.coll.dt = float(scene.time.dt);
+  s.implicit = scene.time.integrator == Integrator::Implicit;
+  s.iterations = uint32_t(scene.time.iterations);
+  s.tolerance = float(scene.time.tolerance);
   s.gravity = make_vec3(scene.gravity[0], scene.gravity[1], scene.gravity[2]);
   return s;
 }

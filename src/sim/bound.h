@@ -293,9 +293,10 @@ RC_HD uint32_t stage_clamp(const StepView& s, uint32_t i) {
 // invariant, so the guarantee stands; layers moving together gain kBoundFactor of their gap per pass.
 inline constexpr uint32_t kBoundPasses = 4;
 
-// 1 when vertex i was pushed (by an obstacle or by the contact solve) and is clamped.
+// 1 when vertex i was pushed (by an obstacle or by the contact solve) and is clamped; with the
+// implicit integrator, when it is clamped at all.
 RC_HD uint32_t stage_held(const StepView& s, uint32_t i) {
-  return (s.flags[i] & kFlagClamped) && (s.flags[i] & (kFlagPushed | kFlagContact)) ? 1u : 0u;
+  return (s.flags[i] & kFlagClamped) && (s.implicit || (s.flags[i] & (kFlagPushed | kFlagContact))) ? 1u : 0u;
 }
 
 // Before the first clamp: every vertex's goal (position and velocity).
@@ -345,16 +346,21 @@ RC_HD uint32_t stage_push_clamped(const StepView& s, uint32_t i) {
   return (s.flags[i] & (kFlagPushed | kFlagClamped)) == (kFlagPushed | kFlagClamped) ? 1u : 0u;
 }
 
+// Whether p lies behind the obstacle face nearest to it (within reach): inside the obstacle at t + dt.
+RC_HD bool inside_obstacle(const StepView& s, Vec3 p, float reach) {
+  const ObstaclePoint q = nearest_obstacle_point(s, p, reach);
+  if (!q.found) return false;
+  const Vec3 face = triangle_normal(s.geom.obstacle_vertices, s.geom.obstacle_indices, q.prim);
+  return ddot(dvec(p) - q.point, dvec(face)) < 0.0;
+}
+
 // Of those, a vertex the bound left inside the obstacle (behind the face nearest to it): cloth on
 // both sides of it left no room (a pinch, or a push faster than the bound allows). Counted, and
 // reported by the run as obstacle_conflicts.
 RC_HD uint32_t stage_conflict(const StepView& s, uint32_t i) {
   if (!stage_push_clamped(s, i)) return 0u;
   const Vec3 xn = s.x_next[i];
-  const ObstaclePoint q = nearest_obstacle_point(s, xn, s.coll.thickness + length(xn - s.x[i]) + s.obstacle_reach);
-  if (!q.found) return 0u;
-  const Vec3 face = triangle_normal(s.geom.obstacle_vertices, s.geom.obstacle_indices, q.prim);
-  return ddot(dvec(xn) - q.point, dvec(face)) < 0.0 ? 1u : 0u;
+  return inside_obstacle(s, xn, s.coll.thickness + length(xn - s.x[i]) + s.obstacle_reach) ? 1u : 0u;
 }
 
 }  // namespace raycloth

@@ -409,6 +409,7 @@ class CudaBackend final : public Backend {
     attach_lift_ = DeviceBuffer<float>(m.attach_lift);
     attach_k_ = DeviceBuffer<float>(m.attach_k);
     attach_kd_ = DeviceBuffer<float>(m.attach_kd);
+    color_vertices_ = DeviceBuffer<uint32_t>(m.color_vertices);
 
     st_ = std::make_unique<SimState<DeviceBuffer>>(m);
 
@@ -497,6 +498,10 @@ class CudaBackend final : public Backend {
       s.model.attach_k = attach_k_.data();
       s.model.attach_kd = attach_kd_.data();
     }
+    // The colouring: the vertices on the device, the loops' bounds on the host (ModelView).
+    s.model.color_vertices = color_vertices_.data();
+    s.model.color_offset = model_.color_offset.data();
+    s.model.num_colors = model_.color_offset.empty() ? 0u : uint32_t(model_.color_offset.size() - 1);
     s.geom.obstacle_vertices = obstacle_x_.data();
     s.geom.obstacle_velocities = obstacles_.any_moving ? obstacle_v_.data() : nullptr;
     s.geom.obstacle_indices = obstacle_indices_.data();
@@ -538,7 +543,7 @@ class CudaBackend final : public Backend {
   DeviceBuffer<uint8_t> tri_edge_owner_;
   // Seams closing over time and attachments (empty when the scene has none).
   DeviceBuffer<float> adj_rest_start_, attach_lift_, attach_k_, attach_kd_;
-  DeviceBuffer<uint32_t> attach_slot_, attach_tri_;
+  DeviceBuffer<uint32_t> attach_slot_, attach_tri_, color_vertices_;
   DeviceBuffer<Vec3> attach_bary_, attach_offset_;
   static const float* m_has_(const DeviceBuffer<float>& b) { return b.size() > 0 ? b.data() : nullptr; }
   std::unique_ptr<SimState<DeviceBuffer>> st_;

@@ -146,6 +146,9 @@ ModelView ClothModel::view() const {
     v.attach_k = attach_k.data();
     v.attach_kd = attach_kd.data();
   }
+  v.color_vertices = color_vertices.data();
+  v.color_offset = color_offset.data();
+  v.num_colors = color_offset.empty() ? 0u : uint32_t(color_offset.size() - 1);
   return v;
 }
 
@@ -227,6 +230,31 @@ void build_adjacency(ClothModel& model) {
       if (model.sew_time > 0) model.adj_rest_start[slot] = sp.rest_start;
     }
   }
+  // The implicit integrator's colouring: greedy in vertex order over the springs (a seam partner
+  // takes its representative's place, so only representatives are coloured).
+  std::vector<uint32_t> color(n, 0xFFFFFFFFu);
+  std::vector<uint32_t> used;
+  uint32_t colors = 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    if (!model.alias.empty() && model.alias[i] != i) continue;
+    used.assign(colors + 1, 0u);
+    for (uint32_t k = model.adj_offset[i]; k < model.adj_offset[i + 1]; ++k) {
+      const uint32_t c = color[model.adj_other[k]];
+      if (c != 0xFFFFFFFFu) used[c] = 1u;
+    }
+    uint32_t c = 0;
+    while (used[c]) ++c;
+    color[i] = c;
+    colors = std::max(colors, c + 1);
+  }
+  model.color_offset.assign(colors + 1, 0u);
+  for (uint32_t i = 0; i < n; ++i)
+    if (color[i] != 0xFFFFFFFFu) ++model.color_offset[color[i] + 1];
+  for (uint32_t c = 0; c < colors; ++c) model.color_offset[c + 1] += model.color_offset[c];
+  model.color_vertices.assign(model.color_offset.back(), 0u);
+  std::vector<uint32_t> at(model.color_offset.begin(), model.color_offset.end() - 1);
+  for (uint32_t i = 0; i < n; ++i)
+    if (color[i] != 0xFFFFFFFFu) model.color_vertices[at[color[i]]++] = i;
 }
 
 namespace {

@@ -60,6 +60,11 @@ struct ModelView {
   const float* attach_lift = nullptr;
   const float* attach_k = nullptr;
   const float* attach_kd = nullptr;
+  // The implicit integrator's colouring: the free representative vertices, colour by colour (no
+  // two of a colour share a spring), colour c being color_vertices[color_offset[c], color_offset[c+1]).
+  const uint32_t* color_vertices = nullptr;
+  const uint32_t* color_offset = nullptr;  // host memory on every backend: the loops' bounds
+  uint32_t num_colors = 0;
 };
 
 inline constexpr uint32_t kNoAttachment = 0xFFFFFFFFu;
@@ -88,6 +93,8 @@ struct ClothModel {
   std::vector<uint32_t> edges;
   float mean_edge = 0;  // mean length of `edges` at the start (metres): the bound's look-ahead scale
   std::vector<uint8_t> tri_edge_owner;  // see ModelView
+  // The implicit integrator's colouring (see ModelView; greedy, in vertex order).
+  std::vector<uint32_t> color_offset, color_vertices;
 
   uint32_t num_vertices() const { return uint32_t(initial_positions.size()); }
   uint32_t num_triangles() const { return uint32_t(triangles.size() / 3); }

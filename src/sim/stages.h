@@ -56,6 +56,8 @@ struct StepCounters {
   uint32_t held = 0;           // pushed vertices the last clamp held back (run_bound_passes)
   uint32_t pass_active = 0;    // 1 while a further pass of the bound runs
   uint32_t bound_passes = 0;   // further passes of the bound this step
+  uint32_t residual = 0;       // float bits: the implicit integrator's largest step in its last sweep (metres)
+  uint32_t unconverged = 0;    // 1 when that step exceeds the tolerance
   uint32_t bad_vertex = 0xFFFFFFFFu;  // smallest vertex that blew up
 };
 
@@ -83,6 +85,8 @@ struct StepResult {
   uint64_t contact_moved = 0;  // vertex-steps the two-sided contact solve pushed
   uint64_t contact_rounds = 0; // position rounds of the contact solve that acted, summed over steps
   uint64_t bound_passes = 0;   // further passes of the bound (run_bound_passes), summed over steps
+  double max_residual = 0;     // implicit integrator: the largest last-sweep step of any step (metres)
+  uint64_t unconverged = 0;    // implicit integrator: steps whose last sweep still moved a vertex more than the tolerance
   int64_t bad_vertex = -1;     // first vertex that blew up, or -1
   uint64_t bad_step = 0;       // step (counted from the start of the run) where it did
 };
@@ -100,6 +104,8 @@ inline void add_step(StepResult& r, const StepCounters& c) {
   r.contact_moved += c.contact_moved;
   r.contact_rounds += c.contact_rounds;
   r.bound_passes += c.bound_passes;
+  r.max_residual = r.max_residual > double(float_from_bits(c.residual)) ? r.max_residual : double(float_from_bits(c.residual));
+  r.unconverged += c.unconverged;
 }
 
 struct StepView {
@@ -109,6 +115,9 @@ struct StepView {
   Vec3 gravity;
   float blowup_limit = 1e4f;   // |x| past this (metres) is a blow-up
   float sew = 1.0f;            // how far seams have closed (0 -> 1 over the model's sew_time)
+  bool implicit = false;       // the implicit integrator (TimeDef::integrator), with its sweeps and tolerance
+  uint32_t iterations = 10;
+  float tolerance = 1e-4f;
   const Vec3* x = nullptr;     // state at t
   const Vec3* v = nullptr;
   Vec3* x_next = nullptr;      // state at t + dt
@@ -165,27 +174,37 @@ RC_HD bool is_representative(const ModelView& m, uint32_t i) { return m.alias[i]
 // An attachment's pull on vertex i: a spring of rest length 0 to its body point at t + dt (lifted
 // along the body triangle's normal), damped along the velocity relative to that point. While seams
 // close the point starts at the vertex's start position and eases onto the body.
-RC_HD Vec3 attachment_force(const StepView& s, uint32_t i) {
+// Vertex i's attachment at t + dt: the body point it is pulled to, that point's velocity, the
+// stiffness and the damping. False when it has none.
+RC_HD bool attachment_target(const StepView& s, uint32_t i, Vec3& target, Vec3& target_v, float& k, float& kd) {
   const ModelView& m = s.model;
-  if (!m.attach_slot || m.attach_slot[i] == kNoAttachment) return make_vec3(0, 0, 0);
-  const uint32_t k = m.attach_slot[i];
-  const uint32_t* t = s.geom.obstacle_indices + 3 * m.attach_tri[k];
+  if (!m.attach_slot || m.attach_slot[i] == kNoAttachment) return false;
+  const uint32_t a = m.attach_slot[i];
+  const uint32_t* t = s.geom.obstacle_indices + 3 * m.attach_tri[a];
   const Vec3* ov = s.geom.obstacle_vertices;
-  const Vec3 w = m.attach_bary[k];
-  const Vec3 n = triangle_normal(ov, s.geom.obstacle_indices, m.attach_tri[k]);
-  const Vec3 target = ov[t[0]] * w.x + ov[t[1]] * w.y + ov[t[2]] * w.z + n * m.attach_lift[k] +
-                      m.attach_offset[k] * (1.0f - s.sew);
-  Vec3 target_v = make_vec3(0, 0, 0);
+  const Vec3 w = m.attach_bary[a];
+  const Vec3 n = triangle_normal(ov, s.geom.obstacle_indices, m.attach_tri[a]);
+  target = ov[t[0]] * w.x + ov[t[1]] * w.y + ov[t[2]] * w.z + n * m.attach_lift[a] + m.attach_offset[a] * (1.0f - s.sew);
+  target_v = make_vec3(0, 0, 0);
   if (s.geom.obstacle_velocities) {
     const Vec3* vv = s.geom.obstacle_velocities;
     target_v = vv[t[0]] * w.x + vv[t[1]] * w.y + vv[t[2]] * w.z;
   }
-  return (target - s.x[i]) * m.attach_k[k] + (target_v - s.v[i]) * m.attach_kd[k];
+  k = m.attach_k[a];
+  kd = m.attach_kd[a];
+  return true;
 }
 
-RC_HD void stage_integrate(const StepView& s, uint32_t i) {
-  integrate_vertex(s.model, s.x, s.v, i, s.gravity, s.coll.dt, s.v_next[i], s.x_next[i], s.sew,
-                   attachment_force(s, i));
+RC_HD Vec3 attachment_force(const StepView& s, uint32_t i) {
+  Vec3 target, target_v;
+  float k, kd;
+  if (!attachment_target(s, i, target, target_v, k, kd)) return make_vec3(0, 0, 0);
+  return (target - s.x[i]) * k + (target_v - s.v[i]) * kd;
+}
+
+// The proposed x', v' ready (either integrator): the collision buffer cleared, the paper's ray along
+// the move, and a runaway flagged.
+RC_HD void finish_integrate(const StepView& s, uint32_t i) {
   s.contacts[i] = Contact();
   s.rays[i] = s.model.inv_mass[i] == 0.0f ? Ray() : velocity_ray(s.x[i], s.x_next[i], i, s.coll);
   s.rays[i].vertex = i;
@@ -194,6 +213,52 @@ RC_HD void stage_integrate(const StepView& s, uint32_t i) {
   const bool runaway = !is_finite(vn) || !is_finite(s.x_next[i]) || fabsf(vn.x) > kRunawaySpeed ||
                        fabsf(vn.y) > kRunawaySpeed || fabsf(vn.z) > kRunawaySpeed;
   s.flags[i] = runaway ? kFlagBlowup : 0u;
+}
+
+// The paper's explicit Euler, eq. (3).
+RC_HD void stage_integrate(const StepView& s, uint32_t i) {
+  integrate_vertex(s.model, s.x, s.v, i, s.gravity, s.coll.dt, s.v_next[i], s.x_next[i], s.sew,
+                   attachment_force(s, i));
+  finish_integrate(s, i);
+}
+
+// The implicit integrator (physics.h, vbd_vertex): every vertex starts at its inertial target
+// y = x + dt v + dt^2 g (a pinned one at x)...
+RC_HD Vec3 inertial_target(const StepView& s, uint32_t i) {
+  const float dt = s.coll.dt;
+  return s.x[i] + s.v[i] * dt + s.gravity * (dt * dt);
+}
+
+RC_HD void stage_implicit_begin(const StepView& s, uint32_t i) {
+  s.x_next[i] = s.model.inv_mass[i] == 0.0f || !is_representative(s.model, i) ? s.x[i] : inertial_target(s, i);
+}
+
+// ...then the colours are swept `iterations` times, one block-descent step per free vertex. In the
+// last sweep the largest step taken is kept (counters->residual): how far from converged it was.
+RC_HD void stage_implicit_vertex(const StepView& s, uint32_t i, bool last) {
+  if (s.model.inv_mass[i] == 0.0f) return;
+  Vec3 target = make_vec3(0, 0, 0), target_v = make_vec3(0, 0, 0);
+  float ka = 0.0f, kad = 0.0f;
+  attachment_target(s, i, target, target_v, ka, kad);
+  const Vec3 next = vbd_vertex(s.model, s.x, s.x_next, i, inertial_target(s, i), s.coll.dt, s.sew, target, target_v, ka, kad);
+  if (last) atomic_max_nonneg(&s.counters->residual, length(next - s.x_next[i]));
+  s.x_next[i] = next;
+}
+
+// One thread, after the sweeps: whether the last one still moved a vertex more than the tolerance.
+RC_HD void stage_implicit_converged(const StepView& s) {
+  s.counters->unconverged = float_from_bits(s.counters->residual) > s.tolerance ? 1u : 0u;
+}
+
+// ...and the velocity is the move over dt.
+RC_HD void stage_implicit_end(const StepView& s, uint32_t i) {
+  if (s.model.inv_mass[i] == 0.0f) {
+    s.x_next[i] = s.x[i];
+    s.v_next[i] = make_vec3(0, 0, 0);
+  } else {
+    s.v_next[i] = (s.x_next[i] - s.x[i]) / s.coll.dt;
+  }
+  finish_integrate(s, i);
 }
 
 // Responds to the velocity ray's hit and prepares each vertex's second ray.

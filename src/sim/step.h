@@ -99,10 +99,28 @@ void run_bound_passes(Exec& ex, const StepView& s) {
   }
 }
 
-// Integrate: eq. (2) and (3) give the proposed x', v'; the paper's ray per vertex along its move.
+// Integrate: the proposed x', v' from eq. (2) and the paper's explicit eq. (3), or from implicit
+// Euler by vertex block descent (sim/physics.h: sweeps over the colours, each colour in parallel);
+// then the paper's ray per vertex along its move.
 template <class Exec>
 void run_integrate(Exec& ex, const StepView& s) {
-  ex.for_each(Stage::Integrate, s.model.num_vertices, [s] RC_LAMBDA(uint32_t i) { stage_integrate(s, i); });
+  const uint32_t n = s.model.num_vertices;
+  if (!s.implicit) {
+    ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_integrate(s, i); });
+    return;
+  }
+  ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_begin(s, i); });
+  for (uint32_t sweep = 0; sweep < s.iterations; ++sweep) {
+    const bool last = sweep + 1 == s.iterations;
+    for (uint32_t c = 0; c < s.model.num_colors; ++c) {
+      const uint32_t first = s.model.color_offset[c], count = s.model.color_offset[c + 1] - first;
+      ex.for_each(Stage::Integrate, count, [s, first, last] RC_LAMBDA(uint32_t k) {
+        stage_implicit_vertex(s, s.model.color_vertices[first + k], last);
+      });
+    }
+  }
+  ex.for_each(Stage::Integrate, 1, [s] RC_LAMBDA(uint32_t) { stage_implicit_converged(s); });
+  ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_end(s, i); });
 }
 
 // Respond: the collision buffer from the rays (two casts), the paper's response, then the
@@ -129,7 +147,9 @@ void run_bound(Exec& ex, const StepView& s) {
   ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_decide_refresh(s); });
   ex.refit_cloth(c);
   run_bound_refresh(ex, s);
-  const bool moving = s.obstacle_reach > 0.0f;  // further passes only where a body moves
+  // Further passes only where a body moves, or with the implicit integrator (whose steps are long:
+  // a vertex falling freely may move farther in one than its ball allows).
+  const bool moving = s.obstacle_reach > 0.0f || s.implicit;
   if (moving) ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_save_goal(s, i); });
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_clamp(s, i); }, &c->clamped);
   if (moving) {

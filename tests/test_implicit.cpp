@@ -1,0 +1,145 @@
+// The implicit integrator (time.integrator "implicit": implicit Euler by vertex block descent,
+// sim/physics.h): analytic motion, stability where the explicit step is refused, the same static
+// equilibrium as the explicit step, the colouring, and contact with the exact check every frame.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+#include <string>
+
+#include "fixtures.h"
+#include "raycloth/error.h"
+#include "sim/model.h"
+#include "sim/physics.h"
+
+namespace raycloth {
+namespace {
+
+using test::panel_scene;
+using test::step_checked;
+
+SceneDef implicit(SceneDef s, double dt, int iterations = 10) {
+  s.time.integrator = Integrator::Implicit;
+  s.time.dt = dt;
+  s.time.iterations = iterations;
+  return s;
+}
+
+// A sheet falling freely keeps every spring at its rest length, so implicit Euler is exact:
+// v_n = n g dt, y_n = y_0 + g dt^2 n (n + 1) / 2, whatever the springs.
+TEST(Implicit, FreeFallIsImplicitEulerExactly) {
+  Simulator sim(implicit(panel_scene(5, 0.4f, 1.0f), 1.0 / 240.0));
+  const std::vector<Vec3> start = sim.positions();
+  const int n = 24;
+  sim.step(n);
+  const double dt = 1.0 / 240.0, drop = 9.81 * dt * dt * n * (n + 1) / 2.0;
+  const std::vector<Vec3>& x = sim.positions();
+  for (size_t i = 0; i < x.size(); ++i) {
+    EXPECT_NEAR(x[i].y, start[i].y - drop, 2e-5) << "vertex " << i;
+    EXPECT_NEAR(x[i].x, start[i].x, 1e-6);
+    EXPECT_NEAR(sim.velocities()[i].y, -9.81 * dt * n, 1e-3);
+  }
+  EXPECT_EQ(sim.unconverged_steps(), 0u);
+}
+
+// One block-descent step on a vertex between two springs at rest with no inertia to speak of goes
+// where the springs balance: a vertex held by springs to (0,0,0) and (2,0,0), rest length 1, sits
+// at (1,0,0) whatever it starts at along the line.
+TEST(Implicit, BlockStepOfAVertexBetweenTwoSpringsFindsTheBalance) {
+  ClothModel m;
+  m.initial_positions = {make_vec3(0, 0, 0), make_vec3(1.3f, 0, 0), make_vec3(2, 0, 0)};
+  m.mass = {1e-6f, 1e-6f, 1e-6f};
+  m.inv_mass = {0.0f, 1e6f, 0.0f};
+  m.damping = {0, 0, 0};
+  m.alias = {0, 1, 2};
+  m.springs = {{0, 1, 1.0f, 100.0f, 0.0f, SpringType::Stretch, 1.0f}, {1, 2, 1.0f, 100.0f, 0.0f, SpringType::Stretch, 1.0f}};
+  build_adjacency(m);
+  const ModelView v = m.view();
+  std::vector<Vec3> x = m.initial_positions;
+  const Vec3 next = vbd_vertex(v, x.data(), x.data(), 1, x[1], 1.0f / 60.0f, 1.0f, make_vec3(0, 0, 0), make_vec3(0, 0, 0), 0, 0);
+  EXPECT_NEAR(next.x, 1.0f, 1e-4f);
+  EXPECT_NEAR(next.y, 0.0f, 1e-6f);
+}
+
+// No two vertices of a colour share a spring, and every free representative has one colour.
+TEST(Implicit, ColouringSeparatesEverySpring) {
+  const SceneDef s = implicit(panel_scene(9, 0.4f, 1.0f), 1.0 / 120.0);
+  const ClothModel m = build_cloth_model(s);
+  ASSERT_GT(m.color_offset.size(), 2u);
+  std::vector<int> colour(m.num_vertices(), -1);
+  for (size_t c = 0; c + 1 < m.color_offset.size(); ++c)
+    for (uint32_t k = m.color_offset[c]; k < m.color_offset[c + 1]; ++k) {
+      EXPECT_EQ(colour[m.color_vertices[k]], -1);
+      colour[m.color_vertices[k]] = int(c);
+    }
+  for (uint32_t i = 0; i < m.num_vertices(); ++i) EXPECT_GE(colour[i], 0) << i;
+  for (const Spring& sp : m.springs) EXPECT_NE(colour[sp.a], colour[sp.b]) << sp.a << "-" << sp.b;
+}
+
+// A sheet pinned along one edge, hanging: at 10 ms per step (about 23 times the explicit step's
+// limit, which the explicit integrator refuses) the implicit one runs, and both come to rest at the
+// same shape: their static equilibria are the same springs' (within 1 cm after 3 s).
+TEST(Implicit, StableFarBeyondTheExplicitLimitAndRestsWhereTheExplicitDoes) {
+  SceneDef base = panel_scene(9, 0.4f, 1.0f, 4.0f);
+  base.time.duration = 3.0;
+  PinDef pin;
+  pin.panel = "cloth";
+  pin.edge = "top";
+  base.pins.push_back(pin);
+  base.panels[0].transform.rotation = {-90, 0, 0};  // hanging in a vertical plane
+  SceneDef big = base;
+  big.time.dt = 0.01;
+  EXPECT_THROW(Simulator{big}, InputError);
+  Simulator imp(implicit(base, 0.01, 20));
+  imp.step(300);
+  Simulator exp(base);
+  exp.step(int(3.0 / base.time.dt));
+  const std::vector<Vec3>& a = imp.positions();
+  const std::vector<Vec3>& b = exp.positions();
+  float worst = 0;
+  for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, length(a[i] - b[i]));
+  EXPECT_LT(worst, 0.01f);
+  float speed = 0;
+  for (const Vec3& v : imp.velocities()) speed = std::max(speed, length(v));
+  EXPECT_LT(speed, 0.05f) << "not at rest";
+}
+
+// The peers' drape, smaller (33 x 33, 0.6 m onto a sphere of radius 0.2 m) at 1/120 s per step:
+// no cloth through cloth and nothing inside the sphere on any step checked (every 4th, 1.5 s).
+TEST(Implicit, DrapeOnASphereAtLongStepsIsCleanOnEveryCheckedStep) {
+  SceneDef s = implicit(panel_scene(33, 0.6f, 0.3f, 1.0f), 1.0 / 120.0);
+  s.collision.thickness = 0.002f;
+  s.obstacles.push_back(test::sphere_obstacle(0.2f, {0, 0, 0}));
+  Simulator sim(s);
+  EXPECT_EQ(step_checked(sim, 180, 4), "");
+  float lowest = 1;
+  for (const Vec3& p : sim.positions()) lowest = std::min(lowest, p.y);
+  EXPECT_LT(lowest, 0.0f) << "the cloth did not fall round the sphere";
+}
+
+TEST(ImplicitErrors, SceneFields) {
+  auto parse = [](const std::string& time) {
+    return parse_scene(R"({"time": )" + time + R"(, "materials": [{"name": "m"}],
+                          "panels": [{"name": "a", "material": "m", "size": [1, 1], "resolution": [3, 3]}]})",
+                       "test.json");
+  };
+  auto message = [&](const std::string& time) {
+    try {
+      validate_scene(parse(time));
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(message(R"({"integrator": "rk4"})"),
+            "test.json: /time/integrator: unknown integrator 'rk4' (expected 'explicit' or 'implicit')");
+  EXPECT_EQ(message(R"({"iterations": 5})"),
+            "test.json: /time/iterations: field 'iterations' applies to the implicit integrator only");
+  EXPECT_EQ(message(R"({"integrator": "implicit", "iterations": 0})"),
+            "test.json: /time/iterations: must be between 1 and 1000 (got 0)");
+  EXPECT_EQ(message(R"({"integrator": "implicit", "tolerance": -1})"), "test.json: /time/tolerance: must be positive (got -1)");
+  EXPECT_EQ(parse(R"({"integrator": "implicit", "iterations": 30})").time.iterations, 30);
+}
+
+}  // namespace
+}  // namespace raycloth
