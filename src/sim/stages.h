@@ -139,6 +139,8 @@ struct StepView {
   Vec3* x_goal = nullptr;
   Vec3* v_goal = nullptr;
   Vec3* x_mid = nullptr;  // per vertex: how far the contact solve moved it in this step
+  Vec3* x_sweep = nullptr;       // implicit integrator: the iterate before the last sweep
+  Vec3* x_sweep_prev = nullptr;  // and the one before that (Chebyshev acceleration)
   float* clearance = nullptr;      // per vertex: how far it can move before an obstacle could be near (stage_obstacles)
   // Two-sided contact (sim/contact.h): pair slots (contact_slots: per vertex, then per edge), and
   // per vertex the fixed-point sum (and count) of the corrections its pairs give it in a round.
@@ -245,6 +247,28 @@ RC_HD void stage_implicit_vertex(const StepView& s, uint32_t i, bool last) {
   s.x_next[i] = next;
 }
 
+// Chebyshev acceleration of the sweeps (Wang, "A Chebyshev semi-iterative approach for accelerating
+// projective and position-based dynamics", TOG 34(6), 2015; the vertex block descent paper uses it
+// too): after sweep k the iterate is pushed on to omega_k (x_hat - x_{k-1}) + x_{k-1}, with
+// omega_1 = 1, omega_2 = 2 / (2 - rho^2), omega_{k+1} = 4 / (4 - rho^2 omega_k), rho the estimated
+// spectral radius of one sweep. kChebyshevRho was chosen on the peers' scene (docs/performance.md).
+inline constexpr float kChebyshevRho = 0.9f;
+
+RC_HD float chebyshev_omega(uint32_t sweep) {
+  float omega = 1.0f;
+  for (uint32_t k = 1; k <= sweep; ++k)
+    omega = k == 1 ? 2.0f / (2.0f - kChebyshevRho * kChebyshevRho) : 4.0f / (4.0f - kChebyshevRho * kChebyshevRho * omega);
+  return omega;
+}
+
+RC_HD void stage_sweep_save(const StepView& s, uint32_t i) { s.x_sweep[i] = s.x_next[i]; }
+
+RC_HD void stage_sweep_accelerate(const StepView& s, uint32_t i, uint32_t sweep) {
+  if (s.model.inv_mass[i] == 0.0f || !is_representative(s.model, i)) return;
+  if (sweep > 0) s.x_next[i] = s.x_sweep_prev[i] + (s.x_next[i] - s.x_sweep_prev[i]) * chebyshev_omega(sweep);
+  s.x_sweep_prev[i] = s.x_sweep[i];
+}
+
 // One thread, after the sweeps: whether the last one still moved a vertex more than the tolerance.
 RC_HD void stage_implicit_converged(const StepView& s) {
   s.counters->unconverged = float_from_bits(s.counters->residual) > s.tolerance ? 1u : 0u;
@@ -288,6 +312,10 @@ RC_HD uint32_t stage_respond_contact(const StepView& s, uint32_t i) {
     if (s.contacts[i].w < 0.0f) s.contacts[i] = c;
     if (respond(r, c, s.coll, s.v_next[i], s.x_next[i])) s.contact_normal[i] = c.normal;
   }
+  // A long implicit step: where the response acted, the position follows the velocity it left
+  // (friction included), as the explicit step's x' = x + dt v' does; otherwise the cloth would slide
+  // within the step as if there were no friction.
+  if (s.implicit && s.contacts[i].w >= 0.0f && s.model.inv_mass[i] != 0.0f) s.x_next[i] = s.x[i] + s.v_next[i] * s.coll.dt;
   return s.contacts[i].w >= 0.0f ? 1u : 0u;
 }
 

@@ -35,6 +35,9 @@ struct SimState {
   Array<uint32_t> flags;      // per vertex, per step (kFlag*)
   // The bound's further passes: the step's goal and where the last pass left each vertex.
   Array<Vec3> x_goal, v_goal, x_mid;
+  // The implicit integrator's Chebyshev acceleration: the iterate before the last sweep and the one
+  // before that.
+  Array<Vec3> x_sweep, x_sweep_prev;
   // Two-sided contact (sim/contact.h): clearance from the obstacles, how far the solve moved each
   // vertex, the pair slots and the list of those in use, the fixed-point sums of a round.
   Array<float> clearance, contact_shift;
@@ -63,6 +66,8 @@ struct SimState {
     x_goal = Array<Vec3>(zero);
     v_goal = Array<Vec3>(zero);
     x_mid = Array<Vec3>(zero);
+    x_sweep = Array<Vec3>(zero);
+    x_sweep_prev = Array<Vec3>(zero);
     clearance = Array<float>(std::vector<float>(n, 0.0f));
     contact_shift = Array<float>(std::vector<float>(n, 0.0f));
     const size_t slots = n * kVertexPairs + size_t(m.num_edges()) * kEdgePairs;
@@ -94,6 +99,8 @@ struct SimState {
     s.x_goal = x_goal.data();
     s.v_goal = v_goal.data();
     s.x_mid = x_mid.data();
+    s.x_sweep = x_sweep.data();
+    s.x_sweep_prev = x_sweep_prev.data();
     s.clearance = clearance.data();
     s.contact_shift = contact_shift.data();
     s.pairs = pairs.data();

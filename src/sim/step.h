@@ -112,12 +112,14 @@ void run_integrate(Exec& ex, const StepView& s) {
   ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_begin(s, i); });
   for (uint32_t sweep = 0; sweep < s.iterations; ++sweep) {
     const bool last = sweep + 1 == s.iterations;
+    ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_sweep_save(s, i); });
     for (uint32_t c = 0; c < s.model.num_colors; ++c) {
       const uint32_t first = s.model.color_offset[c], count = s.model.color_offset[c + 1] - first;
       ex.for_each(Stage::Integrate, count, [s, first, last] RC_LAMBDA(uint32_t k) {
         stage_implicit_vertex(s, s.model.color_vertices[first + k], last);
       });
     }
+    if (!last) ex.for_each(Stage::Integrate, n, [s, sweep] RC_LAMBDA(uint32_t i) { stage_sweep_accelerate(s, i, sweep); });
   }
   ex.for_each(Stage::Integrate, 1, [s] RC_LAMBDA(uint32_t) { stage_implicit_converged(s); });
   ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_end(s, i); });
