@@ -215,15 +215,7 @@ class CpuBackend final : public Backend {
 
  private:
   void add_time(Stage stage, Clock::time_point since) {
-    const double s = std::chrono::duration<double>(Clock::now() - since).count();
-    switch (stage) {
-      case Stage::Integrate: times_->integrate += s; break;
-      case Stage::Update: times_->update += s; break;
-      case Stage::Cast: times_->cast += s; break;
-      case Stage::Respond: times_->respond += s; break;
-      case Stage::Contact: times_->contact += s; break;
-      case Stage::Bound: times_->bound += s; break;
-    }
+    add_stage_time(*times_, stage, std::chrono::duration<double>(Clock::now() - since).count());
   }
 
   StepView view(uint64_t step) {

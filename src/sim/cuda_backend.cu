@@ -359,15 +359,7 @@ class CudaBackend final : public Backend {
     for (size_t k = 0; k + 1 < used_; ++k) {
       float ms = 0.0f;
       CUDA_CHECK(cudaEventElapsedTime(&ms, events_[k], events_[k + 1]));
-      const double s = double(ms) * 1e-3;
-      switch (event_stage_[k]) {
-        case Stage::Integrate: times_->integrate += s; break;
-        case Stage::Update: times_->update += s; break;
-        case Stage::Cast: times_->cast += s; break;
-        case Stage::Respond: times_->respond += s; break;
-        case Stage::Contact: times_->contact += s; break;
-        case Stage::Bound: times_->bound += s; break;
-      }
+      add_stage_time(*times_, event_stage_[k], double(ms) * 1e-3);
     }
     used_ = 0;
   }

@@ -24,6 +24,7 @@
 #pragma once
 #include <cstdint>
 
+#include "raycloth/simulator.h"
 #include "sim/contact.h"
 #include "sim/bound.h"
 #include "sim/stages.h"
@@ -37,6 +38,18 @@
 namespace raycloth {
 
 enum class Stage { Integrate, Update, Cast, Respond, Contact, Bound };
+
+// Books `seconds` to a stage's total (both executors time the same stages).
+inline void add_stage_time(StageTimes& t, Stage stage, double seconds) {
+  switch (stage) {
+    case Stage::Integrate: t.integrate += seconds; break;
+    case Stage::Update: t.update += seconds; break;
+    case Stage::Cast: t.cast += seconds; break;
+    case Stage::Respond: t.respond += seconds; break;
+    case Stage::Contact: t.contact += seconds; break;
+    case Stage::Bound: t.bound += seconds; break;
+  }
+}
 
 // The displacement bound's refresh, once the step has decided it (counters->refresh) and the
 // cloth's tree is at x: pass 0 as decided; a partial refresh that left a marked vertex short of
