@@ -263,9 +263,10 @@ RC_HD float chebyshev_omega(uint32_t sweep) {
 
 RC_HD void stage_sweep_save(const StepView& s, uint32_t i) { s.x_sweep[i] = s.x_next[i]; }
 
-RC_HD void stage_sweep_accelerate(const StepView& s, uint32_t i, uint32_t sweep) {
+// omega: chebyshev_omega(sweep), computed once per sweep by the caller (1 for the first).
+RC_HD void stage_sweep_accelerate(const StepView& s, uint32_t i, float omega) {
   if (s.model.inv_mass[i] == 0.0f || !is_representative(s.model, i)) return;
-  if (sweep > 0) s.x_next[i] = s.x_sweep_prev[i] + (s.x_next[i] - s.x_sweep_prev[i]) * chebyshev_omega(sweep);
+  if (omega != 1.0f) s.x_next[i] = s.x_sweep_prev[i] + (s.x_next[i] - s.x_sweep_prev[i]) * omega;
   s.x_sweep_prev[i] = s.x_sweep[i];
 }
 

@@ -132,7 +132,8 @@ void run_integrate(Exec& ex, const StepView& s) {
         stage_implicit_vertex(s, s.model.color_vertices[first + k], last);
       });
     }
-    if (!last) ex.for_each(Stage::Integrate, n, [s, sweep] RC_LAMBDA(uint32_t i) { stage_sweep_accelerate(s, i, sweep); });
+    const float omega = chebyshev_omega(sweep);
+    if (!last) ex.for_each(Stage::Integrate, n, [s, omega] RC_LAMBDA(uint32_t i) { stage_sweep_accelerate(s, i, omega); });
   }
   ex.for_each(Stage::Integrate, 1, [s] RC_LAMBDA(uint32_t) { stage_implicit_converged(s); });
   ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_end(s, i); });
