@@ -1,0 +1,172 @@
+// Fabrics from measurements (src/fabric/kes.h, docs/materials.md): the KES-F conversions and the
+// spring mapping against values computed by hand, the bend springs' calibration against the heavy
+// elastica, presets and measurements in scene files, and their errors word for word.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "fabric/kes.h"
+#include "fixtures.h"
+#include "raycloth/error.h"
+#include "raycloth/scene.h"
+#include "sim/model.h"
+
+namespace raycloth {
+namespace {
+
+void expect_input_error(const std::function<void()>& f, const std::string& message) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), message);
+    return;
+  }
+  ADD_FAILURE() << "no InputError thrown; expected: " << message;
+}
+
+TEST(Fabric, KesUnitsConvertToSi) {
+  // 20 mg/cm^2 = 20e-6 kg / 1e-4 m^2 = 0.2 kg/m^2.
+  EXPECT_DOUBLE_EQ(fabric::weight_to_density(20.0), 0.2);
+  // 0.1 gf cm^2/cm = 0.1 x 9.80665e-3 N x 1e-2 m = 9.80665e-6 N m.
+  EXPECT_NEAR(fabric::bending_to_si(0.1), 9.80665e-6, 1e-15);
+  // 1 gf/(cm deg) = 9.80665e-3 N / 1e-2 m per (pi/180) rad = 56.188 N/m.
+  EXPECT_NEAR(fabric::shear_to_si(1.0), 56.188, 1e-3);
+  // 500 gf/cm = 490.3325 N/m reached at 5 %: a secant modulus of 9806.65 N/m.
+  EXPECT_NEAR(fabric::emt_to_modulus(5.0), 9806.65, 1e-6);
+}
+
+TEST(Fabric, GridSpringsMatchHandComputedValues) {
+  const FabricDef f{"", 20.0, 0.1, 1.0, 5.0};
+  const fabric::Continuum c = fabric::to_continuum(f);
+  // c = (B / (rho g))^(1/3) = (9.80665e-6 / (0.2 x 9.80665))^(1/3) = (5e-6)^(1/3) m = 1.70998 cm.
+  EXPECT_NEAR(fabric::bending_length(c), 0.0170998, 1e-7);
+  // Square cells of 5 mm: a = (E + sqrt(E^2 + 4 G^2)) / 2 = 9806.972, stretch = a - G = 9750.78,
+  // shear = G = 56.188, bend = 8 B / (kappa_ref^2 h^4), kappa_ref = 0.8028 / c: 56.95 N/m.
+  fabric::GridSprings g = fabric::grid_springs(c, 0.005, 0.005);
+  EXPECT_NEAR(g.stretch_u, 9750.78, 0.01);
+  EXPECT_NEAR(g.stretch_v, 9750.78, 0.01);
+  EXPECT_NEAR(g.shear, 56.188, 1e-3);
+  EXPECT_NEAR(g.bend_u, 56.95, 0.01);
+  EXPECT_NEAR(g.bend_v, 56.95, 0.01);
+  // Stretch and shear springs of square cells do not depend on their size; bend springs go as h^-4.
+  const fabric::GridSprings fine = fabric::grid_springs(c, 0.0025, 0.0025);
+  EXPECT_NEAR(fine.stretch_u, g.stretch_u, 1e-6);
+  EXPECT_NEAR(fine.shear, g.shear, 1e-9);
+  EXPECT_NEAR(fine.bend_u, 16.0 * g.bend_u, 1e-6);
+  // Cells of 5 mm x 10 mm: stretch_u = (a - G hx^2/hy^2) hy/hx = 19585.85,
+  // stretch_v = (a - G hy^2/hx^2) hx/hy = 4791.11, shear = G (hx^2 + hy^2) / (2 hx hy) = 70.235,
+  // bend_u = 8 B hy / (kappa^2 hx^5) = 113.90, bend_v = 8 B hx / (kappa^2 hy^5) = 1.7797.
+  g = fabric::grid_springs(c, 0.005, 0.01);
+  EXPECT_NEAR(g.stretch_u, 19585.85, 0.01);
+  EXPECT_NEAR(g.stretch_v, 4791.11, 0.01);
+  EXPECT_NEAR(g.shear, 70.235, 1e-3);
+  EXPECT_NEAR(g.bend_u, 113.90, 0.01);
+  EXPECT_NEAR(g.bend_v, 1.7797, 1e-4);
+  // A triangle mesh's edge: E x (sum of its triangles' areas) / l^2; on an equilateral lattice of
+  // side l (two triangles of sqrt(3)/4 l^2) that is sqrt(3)/2 E, whose lattice modulus 2 k / sqrt(3) is E.
+  const double l = 0.01, area = 2 * std::sqrt(3.0) / 4 * l * l;
+  EXPECT_NEAR(2 * fabric::edge_stretch(c, area, l) / std::sqrt(3.0), 9806.65, 1e-6);
+}
+
+// The constant behind the bend springs: the heavy elastica of this model's cubic moment law,
+// M = B kappa^3 / kappa_ref^2 with kappa_ref = 0.8028 / c, bends a strip of overhang 2c to the
+// cantilever test's 41.5 degrees, as the linear law M = B kappa does (ASTM D1388's c = l / 2).
+TEST(Fabric, BendCalibrationReachesTheCantileverAngleAtTwiceTheBendingLength) {
+  const double w = 1.0, bending = 1.0, c = 1.0;  // units where c = (B / w)^(1/3) = 1
+  EXPECT_NEAR(fabric::elastica_chord_angle(2 * c, w, bending, false), 41.48, 0.01);
+  EXPECT_NEAR(fabric::elastica_chord_angle(2 * c, w, bending, true, fabric::kBendCalibration / c), 41.5, 0.01);
+  // The laws part away from the calibrated overhang: below kappa_ref the cubic law is the softer, so
+  // a shorter strip bends more under it, and a longer one less.
+  EXPECT_GT(fabric::elastica_chord_angle(1.5 * c, w, bending, true, fabric::kBendCalibration / c),
+            fabric::elastica_chord_angle(1.5 * c, w, bending, false));
+  EXPECT_LT(fabric::elastica_chord_angle(2.5 * c, w, bending, true, fabric::kBendCalibration / c),
+            fabric::elastica_chord_angle(2.5 * c, w, bending, false));
+}
+
+TEST(Fabric, PresetsAreNamedAndPlausible) {
+  ASSERT_GE(fabric::presets().size(), 6u);
+  for (const auto& p : fabric::presets()) {
+    SCOPED_TRACE(std::string(p.name));
+    EXPECT_EQ(fabric::find_preset(p.name), &p);
+    EXPECT_GT(p.W, 1.0);
+    EXPECT_LT(p.W, 100.0);
+    EXPECT_GT(p.B, 0.001);
+    EXPECT_LT(p.B, 5.0);
+    EXPECT_GT(p.G, 0.05);
+    EXPECT_LT(p.G, 10.0);
+    EXPECT_GT(p.EMT, 0.5);
+    EXPECT_LT(p.EMT, 100.0);
+  }
+  EXPECT_EQ(fabric::find_preset("velvet"), nullptr);
+}
+
+std::string material_scene(const std::string& material) {
+  return R"({"materials": [)" + material +
+         R"(], "panels": [{"name": "p", "material": "m", "size": [0.1, 0.1], "resolution": [11, 21]}]})";
+}
+
+TEST(Fabric, SceneMaterialTakesAPresetAndOverrides) {
+  SceneDef s = parse_scene(material_scene(R"({"name": "m", "fabric": "denim", "kes": {"B": 0.5}, "bend": 3})"), "f.json");
+  ASSERT_TRUE(s.materials[0].fabric);
+  const FabricDef& f = *s.materials[0].fabric;
+  EXPECT_EQ(f.preset, "denim");
+  const fabric::Preset& denim = *fabric::find_preset("denim");
+  EXPECT_EQ(f.W, denim.W);
+  EXPECT_EQ(f.B, 0.5);
+  EXPECT_EQ(f.EMT, denim.EMT);
+  EXPECT_TRUE(s.materials[0].bend_set);
+  EXPECT_FALSE(s.materials[0].stretch_set);
+  // The model: masses from W, stretch and shear from the mesh (10 x 5 mm cells), bend as given.
+  const ClothModel m = build_cloth_model(s);
+  double mass = 0;
+  for (float v : m.mass) mass += v;
+  EXPECT_NEAR(mass, fabric::weight_to_density(denim.W) * 0.01, 1e-7);
+  fabric::Continuum c = fabric::to_continuum(f);
+  const fabric::GridSprings g = fabric::grid_springs(c, 0.01, 0.005);
+  size_t bends = 0, stretch_u = 0;
+  for (const Spring& sp : m.springs) {
+    if (sp.type == SpringType::Bend) {
+      EXPECT_EQ(sp.k, 3.0f);
+      ++bends;
+    }
+    if (sp.type == SpringType::Shear) EXPECT_NEAR(sp.k, g.shear, 1e-5 * g.shear);
+    if (sp.type == SpringType::Stretch && std::abs(sp.rest - 0.01f) < 1e-6f) {
+      EXPECT_NEAR(sp.k, g.stretch_u, 1e-5 * g.stretch_u);
+      ++stretch_u;
+    }
+  }
+  EXPECT_EQ(bends, size_t(21 * 9 + 11 * 19));
+  EXPECT_EQ(stretch_u, size_t(21 * 10));
+}
+
+TEST(Fabric, MeasurementsAloneMakeAFabric) {
+  SceneDef s = parse_scene(material_scene(R"({"name": "m", "kes": {"W": 20, "B": 0.1, "G": 1, "EMT": 5}})"), "f.json");
+  ASSERT_TRUE(s.materials[0].fabric);
+  EXPECT_EQ(s.materials[0].fabric->preset, "");
+  EXPECT_EQ(s.materials[0].fabric->G, 1.0);
+}
+
+TEST(Fabric, BadPresetsAndImpossibleMeasurementsAreRefused) {
+  expect_input_error([] { parse_scene(material_scene(R"({"name": "m", "fabric": "velvet"})"), "f.json"); },
+                     "f.json: /materials/0/fabric: unknown fabric 'velvet' (expected cotton_shirting, wool_suiting, "
+                     "polyester_plain, silk_crepe, denim, cotton_jersey or linen_plain)");
+  expect_input_error([] { parse_scene(material_scene(R"({"name": "m", "fabric": "denim", "kes": {"B": -1}})"), "f.json"); },
+                     "f.json: /materials/0/kes/B: must be a positive measurement (got -1)");
+  expect_input_error([] { parse_scene(material_scene(R"({"name": "m", "fabric": "denim", "kes": {"W": 0}})"), "f.json"); },
+                     "f.json: /materials/0/kes/W: must be a positive measurement (got 0)");
+  expect_input_error([] { parse_scene(material_scene(R"({"name": "m", "kes": {"W": 20, "B": 0.1, "G": 1}})"), "f.json"); },
+                     "f.json: /materials/0/kes/EMT: missing required field (no 'fabric' preset gives it)");
+  expect_input_error([] { parse_scene(material_scene(R"({"name": "m", "fabric": "denim", "kes": {"Bx": 1}})"), "f.json"); },
+                     "f.json: /materials/0/kes/Bx: unknown field 'Bx'");
+  // A scene built in code gets the same checks: not a number is not a measurement.
+  SceneDef s = test::panel_scene(5, 0.1f, 0.0f);
+  s.source = "code";
+  s.materials[0].fabric = FabricDef{"", 20.0, std::numeric_limits<double>::quiet_NaN(), 1.0, 5.0};
+  expect_input_error([&] { validate_scene(s); }, "code: /materials/0/kes/B: must be a positive measurement (got nan)");
+  s.materials[0].fabric = FabricDef{"", 20.0, 0.1, 1.0, std::numeric_limits<double>::infinity()};
+  expect_input_error([&] { validate_scene(s); }, "code: /materials/0/kes/EMT: must be a positive measurement (got inf)");
+}
+
+}  // namespace
+}  // namespace raycloth
