@@ -24,7 +24,7 @@ struct FabricArgs {
   std::string test, fabric, integrator = "explicit", out;
   std::vector<double> kes;
   double settle = 0, dt = 0;
-  int iterations = 30, segments = 16;
+  int iterations = 30, segments = 0;
   bool quiet = false;
 };
 
@@ -45,7 +45,7 @@ Action add_fabric_command(CLI::App& app) {
   cmd->add_option("--dt", a->dt, "Time step, seconds (default: half the explicit limit, 2 ms implicit)");
   cmd->add_option("--iterations", a->iterations, "Implicit sweeps per step");
   cmd->add_option("--settle", a->settle, "Simulated seconds to rest (default 1 cantilever and tensile, 2 drape)");
-  cmd->add_option("--segments", a->segments, "Cantilever: grid cells along the overhang");
+  cmd->add_option("--segments", a->segments, "Cantilever: grid cells along the overhang (default 16, fewer where the fabric needs)");
   cmd->add_option("--out", a->out, "Folder for result.json (and drape.obj, tensile.csv)");
   cmd->add_flag("-q,--quiet", a->quiet, "Only the result line");
   return [cmd, a] {
@@ -81,10 +81,13 @@ Action add_fabric_command(CLI::App& app) {
         if (!a->quiet)
           for (const auto& t : r.tries) std::cout << fmt::format("overhang {:.2f} cm: chord {:.2f} degrees below level\n", 100 * t.overhang, t.angle);
         std::cout << fmt::format(
-            "{}: bending length c = {:.3f} cm (overhang {:.3f} cm at 41.5 degrees), flexural rigidity G = W c^3 = {:.1f} mg cm; "
-            "(B/W)^(1/3) = {:.3f} cm ({:+.1f} %)\n",
-            a->fabric, 100 * r.bending_length, 100 * r.overhang, r.flexural_rigidity, 100 * r.predicted,
-            100 * (r.bending_length / r.predicted - 1));
+            "{}: bending length c = {:.3f} cm ({:.3f} cm with {} cells, {:.3f} cm with {}, extrapolated), flexural rigidity "
+            "G = W c^3 = {:.1f} mg cm; (B/W)^(1/3) = {:.3f} cm ({:+.1f} %)\n",
+            a->fabric, 100 * r.bending_length, 100 * r.bending_length_fine, r.segments, 100 * r.bending_length_coarse,
+            r.segments / 2, r.flexural_rigidity, 100 * r.predicted, 100 * (r.bending_length / r.predicted - 1));
+        j["bending_length_fine_cm"] = 100 * r.bending_length_fine;
+        j["segments"] = r.segments;
+        j["bending_length_coarse_cm"] = 100 * r.bending_length_coarse;
         j["bending_length_cm"] = 100 * r.bending_length;
         j["overhang_cm"] = 100 * r.overhang;
         j["flexural_rigidity_mg_cm"] = r.flexural_rigidity;

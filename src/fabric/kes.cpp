@@ -26,6 +26,24 @@ double reference_curvature(const Continuum& c) { return kBendCalibration / bendi
 // a = (E + sqrt(E^2 + 4 G^2)) / 2. Bending: a bend spring of rest length 2h over a hinge turned by
 // theta = kappa h shortens by h theta^2 / 4, so a row of them carries M = k h^4 kappa^3 / 8 per row
 // (per unit width: times 1/h across): matched to B kappa at kappa_ref.
+// The bend springs in compression push apart the ends of the stretch springs under them: across any
+// cut of a row, two bend springs push and one stretch spring pulls, so that spring stretches by
+// 2 F / k_s and the bend spring keeps only 1 / (1 + 4 k_b / k_s) of its shortening. A bend spring of
+// k_b = k / (1 - 4 k / k_s) gives the wanted k; meshes so fine that 4 k reaches k_s cannot, and keep
+// k_b = 2 k (the sheet bends more easily than measured there).
+double series_bend(double k, double k_stretch) {
+  const double r = 4.0 * k / k_stretch;
+  return r < 0.5 ? k / (1.0 - r) : 2.0 * k;
+}
+
+double bend_stretch_ratio(const Continuum& c, double hx, double hy) {
+  const double E = c.tensile, G = c.shear;
+  const double a = 0.5 * (E + std::sqrt(E * E + 4.0 * G * G));
+  const double stretch = std::max((a - G * hx * hx / (hy * hy)) * hy / hx, 0.01 * E * hy / hx);
+  const double k2 = reference_curvature(c) * reference_curvature(c);
+  return 4.0 * 8.0 * c.bending * hy / (k2 * std::pow(hx, 5)) / stretch;
+}
+
 GridSprings grid_springs(const Continuum& c, double hx, double hy) {
   GridSprings g;
   const double E = c.tensile, G = c.shear;
@@ -35,8 +53,8 @@ GridSprings grid_springs(const Continuum& c, double hx, double hy) {
   g.stretch_v = std::max((a - G * hy * hy / (hx * hx)) * hx / hy, floor_v);
   g.shear = G * (hx * hx + hy * hy) / (2.0 * hx * hy);
   const double k2 = reference_curvature(c) * reference_curvature(c);
-  g.bend_u = 8.0 * c.bending * hy / (k2 * std::pow(hx, 5));
-  g.bend_v = 8.0 * c.bending * hx / (k2 * std::pow(hy, 5));
+  g.bend_u = series_bend(8.0 * c.bending * hy / (k2 * std::pow(hx, 5)), g.stretch_u);
+  g.bend_v = series_bend(8.0 * c.bending * hx / (k2 * std::pow(hy, 5)), g.stretch_v);
   return g;
 }
 

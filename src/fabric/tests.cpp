@@ -76,7 +76,7 @@ double cantilever_angle(const MaterialDef& material, double overhang, const Cant
   p.height = float(o.width);
   p.resolution_u = n + 2;
   p.resolution_v = 2;
-  p.transform.position = {float(0.5 * (n + 1) * h - h), 0.5f, 0.0f};  // the edge (u = 1) at x = 0
+  p.transform.position = {float(0.5 * (n + 1) * h - h), 0.0f, 0.0f};  // the edge (u = 1) at x = 0 (near the origin: float keeps the bend springs' small shortenings)
   s.panels.push_back(p);
   for (int v = 0; v < 2; ++v) {
     PinDef pin;
@@ -94,7 +94,9 @@ double cantilever_angle(const MaterialDef& material, double overhang, const Cant
   return std::atan2(double(edge.y - tip.y), double(tip.x - edge.x)) * 180.0 / kPi;
 }
 
-CantileverResult cantilever_test(const MaterialDef& material, const CantileverOptions& o) {
+namespace {
+
+CantileverResult cantilever_search(const MaterialDef& material, const CantileverOptions& o) {
   CantileverResult r;
   if (material.fabric) {
     const Continuum c = to_continuum(*material.fabric);
@@ -127,6 +129,36 @@ CantileverResult cantilever_test(const MaterialDef& material, const CantileverOp
   }
   r.overhang = l;
   r.bending_length = l / 2;
+  return r;
+}
+
+}  // namespace
+
+CantileverResult cantilever_test(const MaterialDef& material, const CantileverOptions& options) {
+  CantileverOptions o = options;
+  if (o.segments <= 0) {
+    o.segments = 16;
+    if (material.fabric && !material.bend_set && !material.stretch_set) {
+      Continuum c = to_continuum(*material.fabric);
+      if (material.density_set) c.density = material.density;
+      const double l = 2 * bending_length(c);
+      while (o.segments > 6 && bend_stretch_ratio(c, l / o.segments, o.width) > 0.25) --o.segments;
+    }
+  }
+  CantileverResult r = cantilever_search(material, o);
+  r.segments = o.segments;
+  r.bending_length_fine = r.bending_length;
+  if (o.extrapolate && o.segments >= 4) {
+    CantileverOptions coarse = o;
+    coarse.segments = o.segments / 2;
+    const CantileverResult rc = cantilever_search(material, coarse);
+    r.bending_length_coarse = rc.bending_length;
+    r.steps += rc.steps;
+    // c(n) = c + a / n: from n_f and n_c cells, c = (n_f c_f - n_c c_c) / (n_f - n_c).
+    const double nf = o.segments, nc = coarse.segments;
+    r.bending_length = (nf * r.bending_length_fine - nc * r.bending_length_coarse) / (nf - nc);
+    r.overhang = 2 * r.bending_length;
+  }
   const double w_kes = material.fabric && !material.density_set ? material.fabric->W : material.density * 100.0;
   r.flexural_rigidity = w_kes * std::pow(r.bending_length * 100.0, 3);
   return r;

@@ -25,10 +25,15 @@ struct Stepping {
 // overhang is searched until the chord from the edge to the tip falls 41.5 degrees; the bending
 // length is half the overhang and the flexural rigidity G = W c^3.
 struct CantileverOptions {
-  int segments = 16;     // grid cells along the overhang
+  // Grid cells along the overhang; 0: 16, or fewer where the bend springs would be too stiff for
+  // the stretch springs under them (4 k_bend / k_stretch above 0.25: see fabric::series_bend).
+  int segments = 0;
   double width = 0.025;  // metres
   double tolerance = 0.1;  // degrees off 41.5 at which the search stops
   int max_tries = 8;
+  // Also search with half the segments and extrapolate the bending length to fine cells (Richardson:
+  // the strip's error is first order in the cell length; docs/materials.md).
+  bool extrapolate = true;
   Stepping stepping;
 };
 struct CantileverTry {
@@ -36,10 +41,12 @@ struct CantileverTry {
 };
 struct CantileverResult {
   double overhang = 0;        // metres, at 41.5 degrees
-  double bending_length = 0;  // metres, c = overhang / 2
+  double bending_length = 0;  // metres, c = overhang / 2 (extrapolated when asked)
+  double bending_length_fine = 0, bending_length_coarse = 0;  // metres, at segments and segments / 2
   double flexural_rigidity = 0;  // G = W c^3, mg cm (KES W in mg/cm^2, c in cm)
   double predicted = 0;       // metres, (B / W)^(1/3) from the material's own measurements
   std::vector<CantileverTry> tries;
+  int segments = 0;           // cells along the overhang, as chosen
   uint64_t steps = 0;
 };
 // The strip's chord angle (degrees) at rest for one overhang (metres).

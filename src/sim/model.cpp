@@ -555,8 +555,18 @@ ClothModel build_cloth_model(const SceneDef& s) {
       // The paper's grid (Fig. 1): equal masses, stretch, shear and bend springs.
       const uint32_t nu = pm.nu, nv = pm.nv;
       const float vertex_mass = density * pd.width * pd.height / float(nu * nv);
-      m.mass.insert(m.mass.end(), pm.size(), vertex_mass);
       auto at = [&](uint32_t u, uint32_t v) { return v * nu + u; };
+      // A fabric's grid carries each vertex's own share of the area (half on an edge, a quarter at a
+      // corner), and the springs along an edge half the width of those inside: the sheet's moduli
+      // hold up to its edges.
+      auto edge_share = [](uint32_t i, uint32_t n) { return i == 0 || i + 1 == n ? 0.5f : 1.0f; };
+      if (measured) {
+        const float cell = density * pd.width * pd.height / float((nu - 1) * (nv - 1));
+        for (uint32_t v = 0; v < nv; ++v)
+          for (uint32_t u = 0; u < nu; ++u) m.mass.push_back(cell * edge_share(u, nu) * edge_share(v, nv));
+      } else {
+        m.mass.insert(m.mass.end(), pm.size(), vertex_mass);
+      }
       float stretch_u = mat.stretch, stretch_v = mat.stretch, shear = mat.shear, bend_u = mat.bend, bend_v = mat.bend;
       if (measured) {
         const double hx = length(pm.rest[at(1, 0)] - pm.rest[at(0, 0)]), hy = length(pm.rest[at(0, 1)] - pm.rest[at(0, 0)]);
@@ -569,14 +579,17 @@ ClothModel build_cloth_model(const SceneDef& s) {
       }
       for (uint32_t v = 0; v < nv; ++v)
         for (uint32_t u = 0; u < nu; ++u) {
-          if (u + 1 < nu) spring(at(u, v), at(u + 1, v), stretch_u, SpringType::Stretch);
-          if (v + 1 < nv) spring(at(u, v), at(u, v + 1), stretch_v, SpringType::Stretch);
+          // Explicit stiffnesses are each spring's, as given; computed ones follow the width they carry.
+          const bool ms = measured && !mat.stretch_set, mb = measured && !mat.bend_set;
+          const float row = edge_share(v, nv), column = edge_share(u, nu);
+          if (u + 1 < nu) spring(at(u, v), at(u + 1, v), ms ? stretch_u * row : stretch_u, SpringType::Stretch);
+          if (v + 1 < nv) spring(at(u, v), at(u, v + 1), ms ? stretch_v * column : stretch_v, SpringType::Stretch);
           if (u + 1 < nu && v + 1 < nv) {
             spring(at(u, v), at(u + 1, v + 1), shear, SpringType::Shear);
             spring(at(u + 1, v), at(u, v + 1), shear, SpringType::Shear);
           }
-          if (u + 2 < nu) spring(at(u, v), at(u + 2, v), bend_u, SpringType::Bend);
-          if (v + 2 < nv) spring(at(u, v), at(u, v + 2), bend_v, SpringType::Bend);
+          if (u + 2 < nu) spring(at(u, v), at(u + 2, v), mb ? bend_u * row : bend_u, SpringType::Bend);
+          if (v + 2 < nv) spring(at(u, v), at(u, v + 2), mb ? bend_v * column : bend_v, SpringType::Bend);
         }
     } else {
       // A triangle mesh: a third of each triangle's rest area to each corner; a stretch spring on
