@@ -24,7 +24,8 @@ struct FabricArgs {
   std::string test, fabric, integrator = "explicit", out;
   std::vector<double> kes;
   double settle = 0, dt = 0;
-  int iterations = 30, segments = 0;
+  int iterations = 30, segments = 0, sectors = 96;
+  double ring_spacing = 0.006;
   bool quiet = false;
 };
 
@@ -46,6 +47,8 @@ Action add_fabric_command(CLI::App& app) {
   cmd->add_option("--iterations", a->iterations, "Implicit sweeps per step");
   cmd->add_option("--settle", a->settle, "Simulated seconds to rest (default 1 cantilever and tensile, 2 drape)");
   cmd->add_option("--segments", a->segments, "Cantilever: grid cells along the overhang (default 16, fewer where the fabric needs)");
+  cmd->add_option("--sectors", a->sectors, "Drape: vertices around each ring of the specimen");
+  cmd->add_option("--ring-spacing", a->ring_spacing, "Drape: metres between the specimen's rings outside the disk");
   cmd->add_option("--out", a->out, "Folder for result.json (and drape.obj, tensile.csv)");
   cmd->add_flag("-q,--quiet", a->quiet, "Only the result line");
   return [cmd, a] {
@@ -97,6 +100,8 @@ Action add_fabric_command(CLI::App& app) {
       } else if (a->test == "drape") {
         fabric::DrapeOptions o;
         o.stepping = st;
+        o.sectors = a->sectors;
+        o.ring_spacing = a->ring_spacing;
         const fabric::DrapeResult r = fabric::drape_test(m, o);
         std::cout << fmt::format("{}: drape coefficient {:.1f} %, {} folds (shadow {:.1f} cm^2; rim {:.1f} to {:.1f} cm from the axis)\n",
                                  a->fabric, 100 * r.drape_coefficient, r.folds, 1e4 * r.shadow_area, 100 * r.min_radius,
