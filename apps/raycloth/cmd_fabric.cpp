@@ -21,7 +21,7 @@ namespace raycloth::cli {
 namespace {
 
 struct FabricArgs {
-  std::string test, fabric, integrator = "explicit", out;
+  std::string test, fabric, integrator = "explicit", out, scene;
   std::vector<double> kes;
   double settle = 0, dt = 0;
   int iterations = 30, segments = 0, sectors = 96;
@@ -49,6 +49,7 @@ Action add_fabric_command(CLI::App& app) {
   cmd->add_option("--segments", a->segments, "Cantilever: grid cells along the overhang (default 16, fewer where the fabric needs)");
   cmd->add_option("--sectors", a->sectors, "Drape: vertices around each ring of the specimen");
   cmd->add_option("--ring-spacing", a->ring_spacing, "Drape: metres between the specimen's rings outside the disk");
+  cmd->add_option("--scene", a->scene, "Drape: also write the test as a scene folder (scene.json, specimen.obj, disk.obj) for raycloth run");
   cmd->add_option("--out", a->out, "Folder for result.json (and drape.obj, tensile.csv)");
   cmd->add_flag("-q,--quiet", a->quiet, "Only the result line");
   return [cmd, a] {
@@ -102,6 +103,7 @@ Action add_fabric_command(CLI::App& app) {
         o.stepping = st;
         o.sectors = a->sectors;
         o.ring_spacing = a->ring_spacing;
+        if (!a->scene.empty()) fabric::write_drape_scene(m, o, a->scene);
         const fabric::DrapeResult r = fabric::drape_test(m, o);
         std::cout << fmt::format("{}: drape coefficient {:.1f} %, {} folds (shadow {:.1f} cm^2; rim {:.1f} to {:.1f} cm from the axis)\n",
                                  a->fabric, 100 * r.drape_coefficient, r.folds, 1e4 * r.shadow_area, 100 * r.min_radius,
@@ -132,8 +134,9 @@ Action add_fabric_command(CLI::App& app) {
         }
         if (!a->quiet) std::cout << csv;
         const double at_emt = curve.back().stress * 1e-2 / fabric::kGramForce;
-        std::cout << fmt::format("{}: {:.0f} gf/cm at EMT = {:.2f} % (KES-F: 500 gf/cm there; {:+.1f} %)\n", a->fabric, at_emt,
-                                 m.fabric->EMT, 100 * (at_emt / fabric::kKesMaxLoad - 1));
+        std::cout << fmt::format("{}: {:.0f} gf/cm at EMT = {:.2f} % (KES-F: 500 gf/cm there; {:+.1f} %), triangles of {:.2g} mm\n",
+                                 a->fabric, at_emt, m.fabric->EMT, 100 * (at_emt / fabric::kKesMaxLoad - 1), 1e3 * curve.back().edge);
+        j["edge_mm"] = 1e3 * curve.back().edge;
         if (!out.empty()) write_text(out / "tensile.csv", csv);
       }
       j["wall_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -28,12 +28,17 @@ double reference_curvature(const Continuum& c) { return kBendCalibration / bendi
 // (per unit width: times 1/h across): matched to B kappa at kappa_ref.
 // The bend springs in compression push apart the ends of the stretch springs under them: across any
 // cut of a row, two bend springs push and one stretch spring pulls, so that spring stretches by
-// 2 F / k_s and the bend spring keeps only 1 / (1 + 4 k_b / k_s) of its shortening. A bend spring of
-// k_b = k / (1 - 4 k / k_s) gives the wanted k; meshes so fine that 4 k reaches k_s cannot, and keep
-// k_b = 2 k (the sheet bends more easily than measured there).
-double series_bend(double k, double k_stretch) {
-  const double r = 4.0 * k / k_stretch;
-  return r < 0.5 ? k / (1.0 - r) : 2.0 * k;
+// 2 F / k_s and the bend spring keeps only 1 / (1 + 4 k_b / k_s) of its shortening.
+// Stretched, a row's bend springs (length 2h, one per vertex) pull like stretch springs of 4 k_b:
+// the stretch springs give up that much, k_s' = k_s - 4 k_b, so that the row keeps the modulus. With
+// the series correction on k_s', k_b (1 - 4 k / k_s') = k, that is 4 k_b^2 - k_s k_b + k k_s = 0:
+// k_b = (k_s - sqrt(k_s^2 - 16 k k_s)) / 8, which exists while 16 k <= k_s. Past that, the grid is
+// too fine for the fabric: k_b = k_s / 8 and k_s' = k_s / 2, which bend with k_s / 16 < k.
+void share_with_bend(double& stretch, double& bend, double k) {
+  const double ks = stretch;
+  const double disc = ks * ks - 16.0 * k * ks;
+  bend = disc >= 0 ? (ks - std::sqrt(disc)) / 8.0 : ks / 8.0;
+  stretch = ks - 4.0 * bend;
 }
 
 double bend_stretch_ratio(const Continuum& c, double hx, double hy) {
@@ -53,8 +58,8 @@ GridSprings grid_springs(const Continuum& c, double hx, double hy) {
   g.stretch_v = std::max((a - G * hy * hy / (hx * hx)) * hx / hy, floor_v);
   g.shear = G * (hx * hx + hy * hy) / (2.0 * hx * hy);
   const double k2 = reference_curvature(c) * reference_curvature(c);
-  g.bend_u = series_bend(8.0 * c.bending * hy / (k2 * std::pow(hx, 5)), g.stretch_u);
-  g.bend_v = series_bend(8.0 * c.bending * hx / (k2 * std::pow(hy, 5)), g.stretch_v);
+  share_with_bend(g.stretch_u, g.bend_u, 8.0 * c.bending * hy / (k2 * std::pow(hx, 5)));
+  share_with_bend(g.stretch_v, g.bend_v, 8.0 * c.bending * hx / (k2 * std::pow(hy, 5)));
   return g;
 }
 

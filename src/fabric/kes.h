@@ -45,10 +45,13 @@ struct GridSprings {
   double stretch_u = 0, stretch_v = 0, shear = 0, bend_u = 0, bend_v = 0;
 };
 GridSprings grid_springs(const Continuum& c, double hx, double hy);
-// A grid's bend spring of wanted stiffness k over stretch springs of k_stretch (see kes.cpp).
-double series_bend(double k, double k_stretch);
-// 4 k_bend / k_stretch along u for cells of hx x hy: at 0.5 and above the bend springs cannot
-// carry the measured rigidity (series_bend); the finest grid a fabric can have is where it reaches that.
+// A grid row's stretch springs (k_stretch in, k_stretch' out) and bend springs (out) for a wanted
+// bending stiffness k: the bend springs' pull taken off the stretch springs, the stretch springs'
+// give taken into the bend springs (see kes.cpp).
+void share_with_bend(double& stretch, double& bend, double k);
+// 4 k / k_stretch along u for cells of hx x hy, k the bend springs' wanted stiffness: above 1/4
+// the bend springs cannot carry the measured rigidity (share_with_bend); the finest grid a fabric
+// can have is where it reaches that.
 double bend_stretch_ratio(const Continuum& c, double hx, double hy);
 // A triangle mesh's stretch spring on an edge of rest length `length` whose triangles have areas
 // summing to `area_sum` (one triangle on a boundary), and its bend spring of rest length `length`

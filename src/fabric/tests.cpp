@@ -1,6 +1,7 @@
 #include "fabric/tests.h"
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -33,7 +34,8 @@ void set_stepping(SceneDef& s, const Stepping& st) {
       s.time.dt = 2e-3;
     } else {
       const ClothModel m = build_cloth_model(s);
-      s.time.dt = 0.5 * std::min(m.stability_limit(), m.natural_period());
+      // Half the mesh's limit and a third of the natural period, as the shipped scenes keep.
+      s.time.dt = std::min(0.5 * m.stability_limit(), m.natural_period() / 3.0);
     }
   }
   s.time.fps = 1.0 / st.settle;
@@ -142,7 +144,7 @@ CantileverResult cantilever_test(const MaterialDef& material, const CantileverOp
       Continuum c = to_continuum(*material.fabric);
       if (material.density_set) c.density = material.density;
       const double l = 2 * bending_length(c);
-      while (o.segments > 6 && bend_stretch_ratio(c, l / o.segments, o.width) > 0.25) --o.segments;
+      while (o.segments > 6 && bend_stretch_ratio(c, l / o.segments, o.width) > 0.2) --o.segments;
     }
   }
   CantileverResult r = cantilever_search(material, o);
@@ -211,8 +213,6 @@ SceneDef drape_scene(const MaterialDef& material, const std::filesystem::path& s
   s.panels.push_back(p);
   PinDef pin;
   pin.panel = "specimen";
-  const int free_rings = std::max(1, int(std::lround((o.specimen_radius - o.disk_radius) / o.ring_spacing)));
-  (void)free_rings;
   pin.range = std::array<int, 2>{0, int(1 + 4 * o.sectors) - 1};
   s.pins.push_back(pin);
   if (!o.gravity) s.gravity = {0, 0, 0};
@@ -303,10 +303,72 @@ DrapeResult drape_test(const MaterialDef& material, const DrapeOptions& o) {
   return r;
 }
 
+void write_drape_scene(const MaterialDef& material, const DrapeOptions& o, const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  const uint32_t clamped = write_drape_specimen(dir / "specimen.obj", o);
+  const SceneDef s = drape_scene(material, dir / "specimen.obj", o);
+  // The support disk: a closed cylinder of the disk's radius, its top 3 mm under the specimen.
+  {
+    const int n = o.sectors;
+    const double top = 0.5 - 0.003, bottom = top - 0.01;
+    std::string text = "# Cusick drape tester's support disk\n";
+    for (double y : {top, bottom}) {
+      text += fmt::format("v 0 {:.9g} 0\n", y);
+      for (int i = 0; i < n; ++i)
+        text += fmt::format("v {:.9g} {:.9g} {:.9g}\n", o.disk_radius * std::cos(2 * kPi * i / n), y,
+                            -o.disk_radius * std::sin(2 * kPi * i / n));
+    }
+    const int b = n + 1;  // the bottom centre's number - 1
+    for (int i = 0; i < n; ++i) {
+      const int a0 = 2 + i, a1 = 2 + (i + 1) % n, c0 = b + 2 + i, c1 = b + 2 + (i + 1) % n;
+      text += fmt::format("f 1 {} {}\nf {} {} {}\nf {} {} {}\nf {} {} {}\n", a0, a1, b + 1, c1, c0, a0, c0, c1, a0, c1, a1);
+    }
+    std::ofstream f(dir / "disk.obj", std::ios::binary | std::ios::trunc);
+    f << text;
+    if (!f) throw std::runtime_error((dir / "disk.obj").string() + ": cannot write the support disk");
+  }
+  nlohmann::ordered_json m = {{"name", material.name}};
+  if (material.fabric && !material.fabric->preset.empty()) m["fabric"] = material.fabric->preset;
+  if (material.fabric)
+    m["kes"] = {{"W", material.fabric->W}, {"B", material.fabric->B}, {"G", material.fabric->G}, {"EMT", material.fabric->EMT}};
+  m["damping"] = s.materials[0].damping;
+  nlohmann::ordered_json j = {
+      {"name", "cusick_drape_" + material.name},
+      {"time", {{"dt", s.time.dt}, {"duration", s.time.duration}, {"fps", 1.0 / s.time.duration}}},
+      {"collision", {{"cloth_cloth", false}}},
+      {"materials", {m}},
+      {"panels", {{{"name", "specimen"}, {"material", material.name}, {"mesh", "specimen.obj"}, {"position", {0, 0.5, 0}}}}},
+      {"pins", {{{"panel", "specimen"}, {"range", {0, int(clamped) - 1}}}}},
+      {"obstacles",
+       {{{"name", "disk"}, {"type", "mesh"}, {"file", "disk.obj"}},
+        // The tester's column, so that the floor of rendered images lies far below.
+        {{"name", "column"}, {"type", "box"}, {"size", {0.04, 0.48, 0.04}}, {"position", {0, 0.245, 0}}}}},
+  };
+  std::ofstream f(dir / "scene.json", std::ios::binary | std::ios::trunc);
+  f << "// The Cusick drape test (ISO 9073-9): written by raycloth fabric-test drape --scene\n" << j.dump(2) << "\n";
+  if (!f) throw std::runtime_error((dir / "scene.json").string() + ": cannot write the scene");
+}
+
 // ---- Uniaxial pull --------------------------------------------------------------------------------
 
-std::vector<TensilePoint> tensile_test(const MaterialDef& material, const TensileOptions& o) {
+namespace {
+
+// The share of a built model's in-plane stiffness (sum of k l^2) its bend springs hold, before the
+// stretch springs gave it up (they give it up to half: model.cpp).
+double bend_share(const ClothModel& m) {
+  double st = 0, bt = 0;
+  for (const Spring& sp : m.springs) (sp.type == SpringType::Bend ? bt : st) += double(sp.k) * sp.rest * sp.rest;
+  const double after = st > 0 ? bt / st : 0;
+  return after / (1 + after);
+}
+
+}  // namespace
+
+std::vector<TensilePoint> tensile_test(const MaterialDef& material, const TensileOptions& options) {
   std::vector<TensilePoint> out;
+  TensileOptions o = options;
+  const bool choose = o.edge <= 0;
+  if (choose) o.edge = 0.005;
   for (double strain : o.strains) {
     SceneDef s;
     s.name = "tensile";
@@ -329,6 +391,9 @@ std::vector<TensilePoint> tensile_test(const MaterialDef& material, const Tensil
       pin.segment = seg;
       s.pins.push_back(pin);
     }
+    if (choose)
+      while (o.edge < 0.5 * std::min(o.length, o.width) && bend_share(build_cloth_model(s)) > 0.3)
+        s.panels[0].pattern.edge_length = float(o.edge *= 1.25);
     set_stepping(s, o.stepping);
     Simulator sim(s);
     settle(sim);
@@ -344,7 +409,7 @@ std::vector<TensilePoint> tensile_test(const MaterialDef& material, const Tensil
       const double len = length(d);
       if (len > 0) force += double(sp.k) * (len - double(sp.rest)) * double(d.x) / len;
     }
-    out.push_back({strain, force / o.width});
+    out.push_back({strain, force / o.width, o.edge});
   }
   return out;
 }

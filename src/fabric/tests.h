@@ -26,7 +26,7 @@ struct Stepping {
 // length is half the overhang and the flexural rigidity G = W c^3.
 struct CantileverOptions {
   // Grid cells along the overhang; 0: 16, or fewer where the bend springs would be too stiff for
-  // the stretch springs under them (4 k_bend / k_stretch above 0.25: see fabric::series_bend).
+  // the stretch springs under them (4 k_bend / k_stretch above 0.2: see fabric::share_with_bend).
   int segments = 0;
   double width = 0.025;  // metres
   double tolerance = 0.1;  // degrees off 41.5 at which the search stops
@@ -78,6 +78,10 @@ struct DrapeResult {
 uint32_t write_drape_specimen(const std::filesystem::path& obj, const DrapeOptions& options);
 SceneDef drape_scene(const MaterialDef& material, const std::filesystem::path& specimen_obj, const DrapeOptions& options);
 DrapeResult drape_test(const MaterialDef& material, const DrapeOptions& options = {});
+// The drape test as a scene file `raycloth run` takes: dir/scene.json with the specimen dir/specimen.obj
+// and the 18 cm support disk dir/disk.obj (a 1 cm thick cylinder under the clamped part) on a column, the
+// material by its preset name, the time step the test takes; one frame at the start, one at rest.
+void write_drape_scene(const MaterialDef& material, const DrapeOptions& options, const std::filesystem::path& dir);
 // The area of the union of the triangles' shadows on the horizontal plane (m^2), rasterised at
 // `pixel` metres.
 double shadow_area(const std::vector<Vec3>& x, const std::vector<uint32_t>& triangles, double pixel = 5e-4);
@@ -88,12 +92,16 @@ int count_folds(const std::vector<Vec3>& rim, double prominence = 0.003);
 // ---- Uniaxial pull: a 5 cm x 5 cm specimen (a sewing pattern, meshed in triangles) clamped along
 // two edges, pulled to each strain, and the clamp's force per width measured at rest.
 struct TensileOptions {
-  double length = 0.05, width = 0.05, edge = 0.005;
+  // edge: the triangles' target edge, metres; 0: 5 mm, or longer (by 1.25 each time) while the bend
+  // springs would hold more than 0.3 of the in-plane stiffness (the model's stretch springs give it
+  // up only to half; docs/materials.md).
+  double length = 0.05, width = 0.05, edge = 0;
   std::vector<double> strains{0.01, 0.02, 0.03, 0.04, 0.05};
   Stepping stepping;
 };
 struct TensilePoint {
   double strain = 0, stress = 0;  // stress in N/m (force per width)
+  double edge = 0;                // metres, the mesh's target edge
 };
 std::vector<TensilePoint> tensile_test(const MaterialDef& material, const TensileOptions& options = {});
 

@@ -614,16 +614,32 @@ ClothModel build_cloth_model(const SceneDef& s) {
       m.mass.insert(m.mass.end(), mass.begin(), mass.end());
       fabric::Continuum c;
       if (measured) c = *measured, c.density = density;
+      struct Planned {
+        uint32_t a, b;
+        double k;
+        SpringType type;
+      };
+      std::vector<Planned> planned;
+      double stretch_trace = 0, bend_trace = 0;  // sum of k l^2 over each kind: their in-plane stiffness
       for (const auto& [e, opp] : opposite) {
         const double area = edge_area[e];
-        float stretch = mat.stretch, bend = mat.bend;
-        if (measured && !mat.stretch_set) stretch = float(fabric::edge_stretch(c, area, length(pm.rest[e.second] - pm.rest[e.first])));
-        spring(e.first, e.second, stretch, SpringType::Stretch);
+        const double l = length(pm.rest[e.second] - pm.rest[e.first]);
+        const double ks = measured && !mat.stretch_set ? fabric::edge_stretch(c, area, l) : double(mat.stretch);
+        planned.push_back({e.first, e.second, ks, SpringType::Stretch});
+        stretch_trace += ks * l * l;
         if (opp.size() == 2 && opp[0] != opp[1]) {
-          if (measured && !mat.bend_set) bend = float(fabric::hinge_bend(c, area, length(pm.rest[opp[1]] - pm.rest[opp[0]])));
-          spring(opp[0], opp[1], bend, SpringType::Bend);
+          const double lb = length(pm.rest[opp[1]] - pm.rest[opp[0]]);
+          const double kb = measured && !mat.bend_set ? fabric::hinge_bend(c, area, lb) : double(mat.bend);
+          planned.push_back({opp[0], opp[1], kb, SpringType::Bend});
+          bend_trace += kb * lb * lb;
         }
       }
+      // Stretched, the bend springs pull too: the stretch springs give up that share of the sheet's
+      // in-plane stiffness (at most half: a mesh so fine that they pull more is stiffer than measured).
+      const double give = measured && !mat.stretch_set && !mat.bend_set && stretch_trace > 0
+                              ? std::min(bend_trace / stretch_trace, 0.5) : 0.0;
+      for (const Planned& sp : planned)
+        spring(sp.a, sp.b, float(sp.type == SpringType::Stretch ? sp.k * (1.0 - give) : sp.k), sp.type);
     }
     for (uint32_t i = 0; i < pm.size(); ++i) {
       m.inv_mass.push_back(1.0f / m.mass[base + i]);
