@@ -25,6 +25,7 @@ struct FabricArgs {
   std::vector<double> kes;
   double settle = 0, dt = 0;
   int iterations = 30, segments = 0, sectors = 96;
+  uint32_t seed = 12345u;
   double ring_spacing = 0.006;
   bool quiet = false;
 };
@@ -48,6 +49,7 @@ Action add_fabric_command(CLI::App& app) {
   cmd->add_option("--settle", a->settle, "Simulated seconds to rest (default 1 cantilever and tensile, 2 drape)");
   cmd->add_option("--segments", a->segments, "Cantilever: grid cells along the overhang (default 16, fewer where the fabric needs)");
   cmd->add_option("--sectors", a->sectors, "Drape: vertices around each ring of the specimen");
+  cmd->add_option("--seed", a->seed, "Drape: seed of the specimen's small vertical noise");
   cmd->add_option("--ring-spacing", a->ring_spacing, "Drape: metres between the specimen's rings outside the disk");
   cmd->add_option("--scene", a->scene, "Drape: also write the test as a scene folder (scene.json, specimen.obj, disk.obj) for raycloth run");
   cmd->add_option("--out", a->out, "Folder for result.json (and drape.obj, tensile.csv)");
@@ -103,6 +105,7 @@ Action add_fabric_command(CLI::App& app) {
         o.stepping = st;
         o.sectors = a->sectors;
         o.ring_spacing = a->ring_spacing;
+        o.seed = a->seed;
         if (!a->scene.empty()) fabric::write_drape_scene(m, o, a->scene);
         const fabric::DrapeResult r = fabric::drape_test(m, o);
         std::cout << fmt::format("{}: drape coefficient {:.1f} %, {} folds (shadow {:.1f} cm^2; rim {:.1f} to {:.1f} cm from the axis)\n",
