@@ -93,8 +93,14 @@ class Simulator {
   void save_state(ByteWriter& out);
   void restore_state(ByteReader& in);
 
+  // Substeps per step: 1, or for the implicit integrator where a body moves, as many as keep its
+  // fastest point within kImplicitMaxBodyMove per substep.
+  int substeps() const { return substeps_; }
+
  private:
   SceneDef scene_;
+  SceneDef step_scene_;  // what the backend steps: scene_ with dt / substeps_
+  int substeps_ = 1;
   std::unique_ptr<ClothModel> model_;
   std::unique_ptr<ObstacleSet> obstacles_;
   std::unique_ptr<Backend> backend_;
@@ -106,6 +112,10 @@ class Simulator {
   double max_residual_ = 0;
   StageTimes times_;
 };
+
+// The most a body point may move in one (sub)step of the implicit integrator, metres.
+inline constexpr double kImplicitMaxBodyMove = 0.0005;
+inline constexpr int kMinSubstepSweeps = 4;
 
 // T0 = pi sqrt(m/K) for the lightest free vertex and the stiffest spring (the paper's limit).
 double natural_period(const SceneDef& scene);

@@ -156,12 +156,14 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
                   {"contact_solve_rounds", sim.contact_rounds()},
                   {"bound_passes", sim.bound_passes()}};
   // The integrator, and for the implicit one its convergence: the sweeps per step, the tolerance on
-  // the last sweep's largest step, the steps that did not reach it and the largest such step.
+  // the last sweep's largest step, the steps (substeps) that did not reach it and the largest such step.
   const TimeDef& td = sim.scene().time;
   if (td.integrator == Integrator::Implicit)
     j["integrator"] = {{"name", "implicit"},           {"method", "implicit Euler, vertex block descent"},
                        {"iterations", td.iterations},  {"tolerance", td.tolerance},
-                       {"unconverged_steps", sim.unconverged_steps()}, {"max_residual", sim.max_residual()}};
+                       {"unconverged_steps", sim.unconverged_steps()}, {"max_residual", sim.max_residual()},
+                       // Where a body moves, each step is done in substeps (Simulator::substeps).
+                       {"substeps", sim.substeps()}};
   else
     j["integrator"] = {{"name", "explicit"}, {"method", "explicit Euler, eq. (3)"}};
   if (r.check.enabled) {
