@@ -140,3 +140,20 @@ def test_check_finds_a_vertex_put_inside_the_sphere(small_scene):
     c = sim.check()
     assert c["failed"] and c["vertices_inside"] == 1 and c["crossings"] == 0
     assert "vertex 112" in c["description"] or "112" in c["description"]
+
+
+def test_step_releases_the_gil(small_scene):
+    # Python code of another thread runs all through a step() call: no long gap between its
+    # samples (were the GIL held while stepping, it would wait for the whole call).
+    import threading
+    import time
+    sim = raycloth.Simulator(small_scene, threads=1)
+    worker = threading.Thread(target=sim.step, args=(100,))
+    samples = [time.perf_counter()]
+    worker.start()
+    while worker.is_alive():
+        samples.append(time.perf_counter())
+    worker.join()
+    assert sim.steps == 100
+    total = samples[-1] - samples[0]
+    assert max(np.diff(samples)) < 0.5 * total, (max(np.diff(samples)), total)
