@@ -163,8 +163,8 @@ Load a scene (Scene.from_file / from_json / from_dict, or load_scene), step it w
 penetration check on the current state, or run a whole scene to an output folder as `raycloth run`
 does (run_scene, with a per-frame callback). Errors are raycloth.InputError (bad input: a ValueError,
 with .file, .field and .reason) and raycloth.SimulationError (a blow-up, a device that cannot run:
-a RuntimeError), both subclasses of raycloth.Error, with the same "FILE: FIELD: REASON" text as the
-command line. Ctrl-C stops a long step() or run_scene() with KeyboardInterrupt. See docs/python.md.)";
+a RuntimeError), both subclasses of raycloth.Error (raised itself for a file that cannot be written
+during a run), with the same "FILE: FIELD: REASON" text as the command line. Ctrl-C stops a long step() or run_scene() with KeyboardInterrupt. See docs/python.md.)";
 
 }  // namespace
 
@@ -173,7 +173,11 @@ PYBIND11_MODULE(raycloth, m) {
   m.attr("__version__") = RAYCLOTH_VERSION;
 
   // ---- Exceptions ----
-  g_error = PyErr_NewExceptionWithDoc("raycloth.Error", "Base class of raycloth's errors.", PyExc_Exception, nullptr);
+  g_error = PyErr_NewExceptionWithDoc(
+      "raycloth.Error",
+      "Base class of raycloth's errors, and itself the error of a failure that is neither bad input nor the "
+      "simulation's: a file that cannot be written during a run (naming it and why), the ray tracer's errors.",
+      PyExc_Exception, nullptr);
   {
     py::tuple bases = py::make_tuple(py::handle(g_error), py::handle(PyExc_ValueError));
     g_input_error = PyErr_NewExceptionWithDoc(
@@ -202,6 +206,10 @@ PYBIND11_MODULE(raycloth, m) {
       PyErr_SetObject(g_input_error, exc.ptr());
     } catch (const SimulationError& e) {
       PyErr_SetString(g_simulation_error, e.what());
+    } catch (const py::builtin_exception&) {
+      throw;  // pybind11's own (ValueError, TypeError, ...): translated by pybind11
+    } catch (const std::runtime_error& e) {
+      PyErr_SetString(g_error, e.what());  // a file that cannot be written, the ray tracer's errors
     }
   });
 

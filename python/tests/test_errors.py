@@ -107,3 +107,20 @@ def test_an_unwritable_output_folder(small_scene, tmp_path):
     with pytest.raises(raycloth.InputError) as e:
         raycloth.run_scene(small_scene, tmp_path / "file")
     assert str(e.value) == f"{tmp_path / 'file'}: cannot write the output folder: Not a directory"
+
+
+def test_a_file_that_cannot_be_written_during_a_run(cli, small_scene, tmp_path):
+    # A directory where frame 3 goes: the run stops there, as the command line does, with its text.
+    path = tmp_path / "small.json"
+    path.write_text(json.dumps(small_scene))
+    for name in ("cli", "py"):
+        (tmp_path / name / "frames" / "cloth_0003.obj").mkdir(parents=True)
+    r = subprocess.run([cli, "run", str(path), "--out", str(tmp_path / "cli"), "--quiet"], capture_output=True, text=True)
+    assert r.returncode == 1
+    with pytest.raises(raycloth.Error) as e:
+        raycloth.run_scene(path, tmp_path / "py")
+    assert type(e.value) is raycloth.Error
+    out = tmp_path / "py" / "frames" / "cloth_0003.obj"
+    assert str(e.value) == f"{out}: cannot rename from {out}.tmp: Is a directory"
+    assert r.stderr.strip() == f"raycloth: error: {e.value}".replace("/py/", "/cli/")
+    assert (tmp_path / "py" / "frames" / "cloth_0002.obj").is_file()
