@@ -137,6 +137,7 @@ struct PySimulator {
   }
   // n steps, one at a time with the GIL released; Ctrl-C is noticed between steps.
   void step(long n) {
+    if (n < 0) throw py::value_error("step: n must not be negative (got " + std::to_string(n) + ")");
     for (long k = 0; k < n; ++k) {
       {
         py::gil_scoped_release release;
@@ -296,6 +297,7 @@ cannot run.)")
       .def(
           "step_until",
           [](PySimulator& p, double t) {
+            if (!std::isfinite(t)) throw py::value_error("step_until: t must be finite");
             const double dt = p.sim->scene().time.dt;
             const long long target = std::llround(t / dt);
             if (target > (long long)p.sim->steps()) p.step(long(target - (long long)p.sim->steps()));

@@ -83,13 +83,19 @@ def test_step_until(small_scene):
     sim.step_until(0.05)
     assert sim.steps == 125 and sim.time == pytest.approx(0.05)
     sim.step_until(0.01)  # behind: nothing
+    sim.step(0)
     assert sim.steps == 125
+    with pytest.raises(ValueError):
+        sim.step(-1)
+    with pytest.raises(ValueError):
+        sim.step_until(float("nan"))
 
 
 def test_pinned_vertices_stay_put(small_scene):
     sim = raycloth.Simulator(no_obstacles(small_scene))
     corners = [0, 14, 210, 224]
-    sim.pin(corners)
+    sim.pin(np.array(corners[:2]))  # any sequence of indices
+    sim.pin(corners[2:])
     assert sim.pinned.sum() == 4 and sim.pinned[corners].all()
     x0 = sim.positions.copy()
     sim.step(200)
