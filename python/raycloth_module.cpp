@@ -271,8 +271,8 @@ PYBIND11_MODULE(raycloth, m) {
 positions and velocities are read-only float32 arrays of shape (n, 3) that alias the simulator's
 own memory (no copy): the same array shows the new state after every step(), and it keeps the
 Simulator alive for as long as it exists (take .copy() to keep a state). Write a state back with
-set_state(). Vertex i is the same vertex in positions, velocities, triangles and the OBJ frames of
-a run.)")
+set_state(). Vertex i is the same vertex in positions, velocities, triangles and pin(), and in a
+run's OBJ frames when no seam joins panels (seam partners are written once there).)")
       .def(py::init([](const py::object& scene, const std::string& device, int threads, bool allow_unstable_dt) {
              SceneDef s = to_scene(scene);
              auto p = std::make_unique<PySimulator>();
