@@ -55,13 +55,21 @@ def test_simulator_input_errors(small_scene, tmp_path):
         raycloth.Simulator(small_scene, threads=-1)
 
 
-def test_a_device_that_cannot_run(small_scene):
+def test_a_device_that_cannot_run_or_edit(small_scene):
     ok, why = raycloth.cuda_available()
-    if ok:
-        pytest.skip("a GPU is usable here")
-    with pytest.raises(raycloth.SimulationError) as e:
-        raycloth.Simulator(small_scene, device="cuda")
-    assert str(e.value) == f"device 'cuda' cannot run: {why}"
+    if not ok:
+        with pytest.raises(raycloth.SimulationError) as e:
+            raycloth.Simulator(small_scene, device="cuda")
+        assert str(e.value) == f"device 'cuda' cannot run: {why}"
+        return
+    # With a GPU: the CUDA backend steps, and refuses the edits (the CPU device's).
+    sim = raycloth.Simulator(small_scene, device="cuda")
+    sim.step(10)
+    assert sim.device == "cuda" and sim.positions.shape == (225, 3)
+    with pytest.raises(raycloth.SimulationError, match="set_state: not supported on the cuda backend"):
+        sim.set_state(sim.positions)
+    with pytest.raises(raycloth.SimulationError, match="move_obstacle: not supported on the cuda backend"):
+        sim.move_obstacle(0, vertices=sim.obstacle_vertices(0))
 
 
 def test_state_edit_errors(small_scene):
