@@ -40,7 +40,7 @@ class Backend {
   // model's inv_mass and the obstacles' poses are read from the host every step by a backend that
   // takes edits.
   virtual bool can_edit() const { return false; }
-  virtual void upload(const std::vector<Vec3>& x, const std::vector<Vec3>& v) { (void)x, (void)v; }
+  virtual void replace_state(const std::vector<Vec3>& x, const std::vector<Vec3>& v) { (void)x, (void)v; }
 };
 
 struct BackendInput {

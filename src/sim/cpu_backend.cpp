@@ -64,7 +64,7 @@ class CpuBackend final : public Backend {
   bool can_edit() const override { return true; }
 
   // As the constructor starts: the bound's balls at x with no room, so the first step refreshes it.
-  void upload(const std::vector<Vec3>& x, const std::vector<Vec3>& v) override {
+  void replace_state(const std::vector<Vec3>& x, const std::vector<Vec3>& v) override {
     st_.x[st_.cur] = x;
     st_.v[st_.cur] = v;
     st_.x_ref = x;

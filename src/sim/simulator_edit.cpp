@@ -39,7 +39,7 @@ void Simulator::set_state(const std::vector<Vec3>& x, const std::vector<Vec3>& v
     x_[i] = x[r];
     v_[i] = v[r];
   }
-  backend_->upload(x_, v_);
+  backend_->replace_state(x_, v_);
   synced_ = true;
 }
 
