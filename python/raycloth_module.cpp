@@ -427,6 +427,31 @@ before each step for a motion of your own. The CPU device only (SimulationError 
 cloth edge against every cloth triangle sharing no vertex with it (CGAL's exact predicates) and
 every cloth vertex against every obstacle. A dict: clean, failed, pinched_only, crossings,
 vertices_inside, vertices_pinched, min_pinch_gap, pairs_tested, vertices_tested, description.)")
+      .def_property_readonly(
+          "stats",
+          [](PySimulator& p) {
+            const Simulator& s = *p.sim;
+            py::dict d;
+            d["hits"] = s.last_hits();
+            d["pushed_by_obstacles"] = s.pushed_total();
+            d["clamped_by_bound"] = s.clamped_total();
+            d["obstacle_conflicts"] = s.conflicts_total();
+            d["bound_refreshes"] = s.bound_refreshes();
+            d["cloth_contact_pairs"] = s.contact_pairs();
+            d["moved_by_contact_solve"] = s.contact_moved();
+            d["unconverged_steps"] = s.unconverged_steps();
+            d["max_residual"] = s.max_residual();
+            const StageTimes& t = s.stage_times();
+            d["stage_seconds"] = py::dict(py::arg("integrate") = t.integrate, py::arg("update") = t.update,
+                                          py::arg("cast") = t.cast, py::arg("respond") = t.respond,
+                                          py::arg("contact") = t.contact, py::arg("bound") = t.bound);
+            return d;
+          },
+          R"(The step's counters so far, as run.json's "contact" names them: hits (cloth vertices with an
+entry in the collision buffer in the last step), pushed_by_obstacles, clamped_by_bound,
+obstacle_conflicts, bound_refreshes, cloth_contact_pairs, moved_by_contact_solve (sums over all
+steps), unconverged_steps and max_residual (the implicit integrator), and stage_seconds (wall-clock
+seconds per stage).)")
       .def("__repr__", [](PySimulator& p) {
         return "<raycloth.Simulator '" + p.sim->scene().name + "' on " + p.sim->device() + ": " +
                std::to_string(p.sim->model().num_vertices()) + " vertices, step " + std::to_string(p.sim->steps()) + ">";

@@ -78,6 +78,16 @@ def test_set_state_then_one_step_falls_freely(small_scene):
     np.testing.assert_allclose(sim.positions, x0 + v * dt, atol=1e-7)
 
 
+def test_stats(small_scene):
+    sim = raycloth.Simulator(small_scene)
+    assert sim.stats["hits"] == 0 and sim.stats["bound_refreshes"] == 0
+    sim.step_until(0.15)  # the cloth lies on the sphere
+    s = sim.stats
+    assert s["hits"] > 0 and s["bound_refreshes"] > 0 and s["unconverged_steps"] == 0
+    assert set(s["stage_seconds"]) == {"integrate", "update", "cast", "respond", "contact", "bound"}
+    assert sum(s["stage_seconds"].values()) > 0
+
+
 def test_step_until(small_scene):
     sim = raycloth.Simulator(small_scene)
     sim.step_until(0.05)
