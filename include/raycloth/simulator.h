@@ -97,6 +97,20 @@ class Simulator {
   // fastest point within kImplicitMaxBodyMove per substep.
   int substeps() const { return substeps_; }
 
+  // Edits between steps (src/sim/simulator_edit.cpp), for callers that drive the simulation
+  // themselves (the Python module). The CPU backend has them; elsewhere they throw SimulationError.
+  // set_state: positions and velocities of every cloth vertex at time() (seam partners take their
+  // representative's); the displacement bound starts over from them. Throws InputError for a wrong
+  // size or a value that is not finite.
+  void set_state(const std::vector<Vec3>& x, const std::vector<Vec3>& v);
+  // Pins cloth vertices where they are (a seam partner pins its whole seam group): they stop, and
+  // stay put until set_state moves them.
+  void pin(const std::vector<uint32_t>& vertices);
+  // Moves obstacle `obstacle` (in the order of the scene's obstacles) to these world-space vertices
+  // over the next step, in a straight line (its velocity in that step is the move / dt); it stays
+  // there, at rest, until moved again, its scene motion or animation replaced.
+  void move_obstacle(size_t obstacle, const std::vector<Vec3>& vertices);
+
  private:
   SceneDef scene_;
   SceneDef step_scene_;  // what the backend steps: scene_ with dt / substeps_

@@ -877,6 +877,19 @@ void ObstacleSet::pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec
       if (moving) velocities[gi] = to_vec3(mo.velocity) + cross(omega, vertices[gi] - xf.translation);
     }
   }
+  for (size_t oi = 0; oi < scripted.size(); ++oi) {
+    const Scripted& s = scripted[oi];
+    if (s.to.empty()) continue;
+    const bool moving = t > s.t0 && t <= s.t1;  // the velocity of the move, up to its end
+    const float u = t >= s.t1 ? 1.0f : t > s.t0 ? float((t - s.t0) / (s.t1 - s.t0)) : 0.0f;
+    const float inv_duration = float(1.0 / (s.t1 - s.t0));
+    for (size_t i = 0; i < s.to.size(); ++i) {
+      const size_t gi = first_vertex[oi] + i;
+      const Vec3 d = s.to[i] - s.from[i];
+      vertices[gi] = u == 1.0f ? s.to[i] : s.from[i] + d * u;
+      velocities[gi] = moving ? d * inv_duration : make_vec3(0, 0, 0);
+    }
+  }
 }
 
 }  // namespace raycloth
