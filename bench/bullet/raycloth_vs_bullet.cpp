@@ -25,8 +25,14 @@
 #include <spdlog/spdlog.h>
 #include <sys/resource.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <cmath>
 #include <iostream>
 #include <memory>
@@ -128,6 +134,7 @@ CheckMesh sphere_check_mesh(const PeerScene& s) {
 Result run_raycloth(const PeerScene& s) {
   Result r;
   r.name = "raycloth";
+  r.note = "";
   r.dt = s.def.time.dt;
   r.threads = int(std::thread::hardware_concurrency());
   const double c0 = cpu_seconds();
@@ -279,6 +286,72 @@ Result run_bullet(const PeerScene& s, const BulletOptions& o, bool self_collisio
   return r;
 }
 
+// Blender's cloth (Debian `blender`, headless) on the same scene: bench/blender/peers_drape.py builds
+// the cloth and sphere from the same numbers, steps frame by frame with self-collision and writes
+// the final cloth; the wall time is the script's own timing of the frames (Blender's start-up, about
+// a second, goes to setup). The final cloth then goes through the same exact check and stretch.
+struct BlenderOptions {
+  std::string program = "blender";
+  int quality = 5;
+  double self_distance = 0.005;
+};
+
+Result run_blender(const PeerScene& s, const BlenderOptions& o) {
+  Result r;
+  r.name = "Blender cloth";
+  r.threads = int(std::thread::hardware_concurrency());
+  const PanelDef& p = *s.panel;
+  if (p.width != p.height || p.resolution_u != p.resolution_v)
+    throw InputError("", "", "the Blender side needs a square panel with as many vertices along u as along v");
+  const std::string out =
+      (std::filesystem::temp_directory_path() / fmt::format("raycloth_vs_blender_{}.json", ::getpid())).string();
+  const int fps = 30;
+  const std::string cmd = fmt::format(
+      "'{}' -b --factory-startup --python-exit-code 1 --python '{}/bench/blender/peers_drape.py' -- --size {} "
+      "--resolution {} --height {} --radius {} --slices {} --stacks {} --friction {} --duration {} --fps {} "
+      "--quality {} --self-distance {} --out '{}' > '{}.log' 2>&1",
+      o.program, RAYCLOTH_SOURCE_DIR, p.width, p.resolution_u, p.transform.position[1] - s.sphere->transform.position[1],
+      s.sphere->radius, s.sphere->slices, s.sphere->stacks,
+      s.def.collision.friction, s.def.time.duration, fps, o.quality, o.self_distance, out, out);
+  const auto t0 = std::chrono::steady_clock::now();
+  const int status = std::system(cmd.c_str());
+  const double process_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (status != 0) {
+    std::ifstream log(out + ".log");
+    std::stringstream text;
+    text << log.rdbuf();
+    throw InputError(o.program, "", fmt::format("Blender failed (status {}); its output:\n{}", status, text.str()));
+  }
+  std::ifstream in(out);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  std::filesystem::remove(out);
+  std::filesystem::remove(out + ".log");
+  r.steps = j.at("steps").get<long>();
+  r.dt = s.def.time.duration / double(r.steps);
+  r.wall = j.at("wall_s").get<double>();
+  r.setup_wall = process_wall - r.wall;
+  // Blender runs in a child process: its CPU time is the children's.
+  rusage u{};
+  getrusage(RUSAGE_CHILDREN, &u);
+  r.cpu = double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+  CheckMesh mesh;
+  for (const auto& v : j.at("vertices")) mesh.vertices.push_back(make_vec3(v[0].get<float>(), v[1].get<float>(), v[2].get<float>()));
+  for (const auto& t : j.at("triangles"))
+    for (int k = 0; k < 3; ++k) mesh.triangles.push_back(t[size_t(k)].get<uint32_t>());
+  const CheckReport check = check_state(mesh, sphere_check_mesh(s));
+  r.crossings = check.crossings, r.inside = check.vertices_inside;
+  grid_stretch(mesh.vertices, p.resolution_u, p.resolution_v, p.width, p.height, r);
+  r.note = fmt::format("Blender {}, quality {} ({} steps per frame at {} fps), self-collision distance {} m; "
+                       "whole process {:.2f} s", j.at("blender").get<std::string>(), o.quality, o.quality, fps,
+                       o.self_distance, process_wall);
+  return r;
+}
+
+// The program's path when it is on PATH (or given with a slash and executable), else empty.
+bool program_found(const std::string& program) {
+  return std::system(fmt::format("command -v '{}' > /dev/null 2>&1", program).c_str()) == 0;
+}
+
 nlohmann::json to_json(const Result& r) {
   return {{"name", r.name},     {"dt", r.dt},
           {"steps", r.steps},   {"threads", r.threads},
@@ -297,6 +370,9 @@ int main(int argc, char** argv) {
   std::string json_file;
   BulletOptions bo;
   bool skip_self = false;
+  BlenderOptions blender;
+  bool skip_blender = false;
+  std::vector<std::string> also;
   app.add_option("--scene", scene_file, "Scene file (one rectangular panel over one uv_sphere)");
   app.add_option("--json", json_file, "Also write the results as JSON to this file");
   app.add_option("--bullet-dt", bo.dt, "Bullet's time step, seconds")->check(CLI::Range(1e-5, 0.05));
@@ -304,6 +380,11 @@ int main(int argc, char** argv) {
   app.add_option("--clusters", bo.clusters, "Bullet's clusters for self-collision (0: one per triangle)")
       ->check(CLI::Range(0, 1000000));
   app.add_flag("--no-bullet-self", skip_self, "Skip Bullet with self-collision");
+  app.add_option("--also", also, "Further raycloth scenes of the same geometry to run after the first "
+                                 "(e.g. bench/peers_drape_implicit.json)");
+  app.add_option("--blender", blender.program, "Blender's program (Debian's `blender`); skipped when not found");
+  app.add_option("--blender-quality", blender.quality, "Blender's cloth steps per frame")->check(CLI::Range(1, 100));
+  app.add_flag("--no-blender", skip_blender, "Skip Blender");
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::warn);
 
@@ -322,22 +403,38 @@ int main(int argc, char** argv) {
       results.push_back(r);
     };
     report(run_raycloth(scene));
+    for (const std::string& file : also) {
+      Result r = run_raycloth(peer_scene(file));
+      r.name = fmt::format("raycloth ({})", std::filesystem::path(file).stem().string());
+      report(r);
+    }
     report(run_bullet(scene, bo, false));
     if (!skip_self) report(run_bullet(scene, bo, true));
+    if (!skip_blender) {
+      if (program_found(blender.program))
+        report(run_blender(scene, blender));
+      else
+        std::cout << fmt::format("Blender skipped: `{}` not found (Debian package `blender`)\n", blender.program);
+    }
 
-    std::cout << fmt::format("\n{:<24} {:>8} {:>6} {:>8} {:>8} {:>8} {:>9} {:>8} {:>9} {:>7} {:>9} {:>9}\n", "", "dt ms",
+    std::cout << fmt::format("\n{:<32} {:>8} {:>6} {:>8} {:>8} {:>8} {:>9} {:>8} {:>9} {:>7} {:>9} {:>9}\n", "", "dt ms",
                              "thr", "steps", "wall s", "CPU s", "steps/s", "sim s/s", "crossings", "inside",
                              "stretch", "max str.");
     for (const Result& r : results)
-      std::cout << fmt::format("{:<24} {:>8.2f} {:>6} {:>8} {:>8.2f} {:>8.2f} {:>9.0f} {:>8.3f} {:>9} {:>7} {:>8.2f}% {:>8.2f}%\n",
+      std::cout << fmt::format("{:<32} {:>8.2f} {:>6} {:>8} {:>8.2f} {:>8.2f} {:>9.0f} {:>8.3f} {:>9} {:>7} {:>8.2f}% {:>8.2f}%\n",
                                r.name, 1e3 * r.dt, r.threads, r.steps, r.wall, r.cpu, r.steps_per_s(),
                                r.sim_per_wall(), r.crossings, r.inside, 100 * r.stretch_mean, 100 * r.stretch_max);
     for (const Result& r : results) std::cout << fmt::format("  {}: setup {:.2f} s; {}\n", r.name, r.setup_wall, r.note);
     nlohmann::json ratios = nlohmann::json::object();
-    for (size_t i = 1; i < results.size(); ++i) {
-      const double wall = results[0].wall / results[i].wall, cpu = results[0].cpu / results[i].cpu;
-      std::cout << fmt::format("raycloth / {}: wall {:.3f}, CPU {:.3f}\n", results[i].name, wall, cpu);
-      ratios[results[i].name] = {{"wall", wall}, {"cpu", cpu}};
+    // Every raycloth run against every peer: wall and CPU time for the same simulated time.
+    for (const Result& a : results) {
+      if (a.name.rfind("raycloth", 0) != 0) continue;
+      for (const Result& b : results) {
+        if (b.name.rfind("raycloth", 0) == 0) continue;
+        const double wall = a.wall / b.wall, cpu = a.cpu / b.cpu;
+        std::cout << fmt::format("{} / {}: wall {:.3f}, CPU {:.3f}\n", a.name, b.name, wall, cpu);
+        ratios[a.name][b.name] = {{"wall", wall}, {"cpu", cpu}};
+      }
     }
     if (!json_file.empty()) {
       nlohmann::json out = {{"scene", scene_file}, {"runs", nlohmann::json::array()}, {"raycloth_over", ratios}};

@@ -93,8 +93,28 @@ class Simulator {
   void save_state(ByteWriter& out);
   void restore_state(ByteReader& in);
 
+  // Substeps per step: 1, or for the implicit integrator where a body moves, as many as keep its
+  // fastest point within kImplicitMaxBodyMove per substep.
+  int substeps() const { return substeps_; }
+
+  // Edits between steps (src/sim/simulator_edit.cpp), for callers that drive the simulation
+  // themselves (the Python module). The CPU backend has them; elsewhere they throw SimulationError.
+  // set_state: positions and velocities of every cloth vertex at time() (seam partners take their
+  // representative's); the displacement bound starts over from them. Throws InputError for a wrong
+  // size or a value that is not finite.
+  void set_state(const std::vector<Vec3>& x, const std::vector<Vec3>& v);
+  // Pins cloth vertices where they are (a seam partner pins its whole seam group): they stop, and
+  // stay put until set_state moves them.
+  void pin(const std::vector<uint32_t>& vertices);
+  // Moves obstacle `obstacle` (in the order of the scene's obstacles) to these world-space vertices
+  // over the next step, in a straight line (its velocity in that step is the move / dt); it stays
+  // there, at rest, until moved again, its scene motion or animation replaced.
+  void move_obstacle(size_t obstacle, const std::vector<Vec3>& vertices);
+
  private:
   SceneDef scene_;
+  SceneDef step_scene_;  // what the backend steps: scene_ with dt / substeps_
+  int substeps_ = 1;
   std::unique_ptr<ClothModel> model_;
   std::unique_ptr<ObstacleSet> obstacles_;
   std::unique_ptr<Backend> backend_;
@@ -106,6 +126,10 @@ class Simulator {
   double max_residual_ = 0;
   StageTimes times_;
 };
+
+// The most a body point may move in one (sub)step of the implicit integrator, metres.
+inline constexpr double kImplicitMaxBodyMove = 0.0005;
+inline constexpr int kMinSubstepSweeps = 4;
 
 // T0 = pi sqrt(m/K) for the lightest free vertex and the stiffest spring (the paper's limit).
 double natural_period(const SceneDef& scene);

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <exception>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -156,12 +157,14 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
                   {"contact_solve_rounds", sim.contact_rounds()},
                   {"bound_passes", sim.bound_passes()}};
   // The integrator, and for the implicit one its convergence: the sweeps per step, the tolerance on
-  // the last sweep's largest step, the steps that did not reach it and the largest such step.
+  // the last sweep's largest step, the steps (substeps) that did not reach it and the largest such step.
   const TimeDef& td = sim.scene().time;
   if (td.integrator == Integrator::Implicit)
     j["integrator"] = {{"name", "implicit"},           {"method", "implicit Euler, vertex block descent"},
                        {"iterations", td.iterations},  {"tolerance", td.tolerance},
-                       {"unconverged_steps", sim.unconverged_steps()}, {"max_residual", sim.max_residual()}};
+                       {"unconverged_steps", sim.unconverged_steps()}, {"max_residual", sim.max_residual()},
+                       // Where a body moves, each step is done in substeps (Simulator::substeps).
+                       {"substeps", sim.substeps()}};
   else
     j["integrator"] = {{"name", "explicit"}, {"method", "explicit Euler, eq. (3)"}};
   if (r.check.enabled) {
@@ -269,6 +272,23 @@ void restore_check(ByteReader& r, RunCheck& c) {
   c.first_pinch = r.str();
 }
 
+// An exception from the caller's on_frame or between_steps, carried out of the run's loop.
+struct CallerStop {
+  std::exception_ptr error;
+  std::string what;
+};
+
+template <class F>
+void call_caller(F&& f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    throw CallerStop{std::current_exception(), e.what()};
+  } catch (...) {
+    throw CallerStop{std::current_exception(), "unknown exception"};
+  }
+}
+
 }  // namespace
 
 RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
@@ -367,6 +387,7 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
     }
     report.frames.push_back(rec);
     for (auto& s : sinks) s->frame(sim, rec);
+    if (opt.on_frame) call_caller([&] { opt.on_frame(sim, report.frames.back()); });
   };
 
   auto write_report = [&] {
@@ -444,14 +465,34 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
   }
 
   Progress progress(opt.quiet, num_frames);
-  if (first_frame == 1) emit(FrameRecord{});
   using Clock = std::chrono::steady_clock;
   const auto run_start = Clock::now();
+  // The run stopped by a blow-up or by the caller: the outputs end with the frames so far.
+  auto stop = [&](const std::string& error) {
+    report.error = error;
+    for (auto& s : sinks) {
+      try {
+        s->end(sim);  // the frames so far
+      } catch (const std::exception& sink_error) {
+        spdlog::error("{}", sink_error.what());
+      }
+    }
+    write_report();
+    remove_checkpoint();
+  };
   try {
+    if (first_frame == 1) emit(FrameRecord{});
     for (int f = first_frame; f <= num_frames; ++f) {
       const int n = int(std::min<uint64_t>(steps_per_frame, total_steps - sim.steps()));
       const auto t0 = Clock::now();
-      sim.step(n);
+      if (opt.between_steps) {
+        for (int k = 0; k < n; ++k) {
+          sim.step(1);
+          call_caller(opt.between_steps);
+        }
+      } else {
+        sim.step(n);
+      }
       const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
       report.wall_time += dt;
       FrameRecord rec;
@@ -462,17 +503,11 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
       progress.update(f, std::chrono::duration<double>(Clock::now() - run_start).count());
     }
   } catch (const SimulationError& e) {
-    report.error = e.what();
-    for (auto& s : sinks) {
-      try {
-        s->end(sim);  // the frames so far
-      } catch (const std::exception& sink_error) {
-        spdlog::error("{}", sink_error.what());
-      }
-    }
-    write_report();
-    remove_checkpoint();
+    stop(e.what());
     throw;
+  } catch (const CallerStop& s) {
+    stop(fmt::format("stopped by the caller at step {} (t = {:g} s): {}", sim.steps(), sim.time(), s.what));
+    std::rethrow_exception(s.error);
   }
   for (auto& s : sinks) s->end(sim);
   write_report();

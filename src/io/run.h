@@ -91,6 +91,12 @@ struct RunOptions {
   std::string scene_text;
   // Stored in the checkpoint as is (JSON; the CLI keeps its arguments there for `raycloth resume`).
   std::string invocation = "{}";
+  // Called with every output frame once the outputs have it (frame 0 included), and between steps
+  // (then the run steps one step at a time). One that throws stops the run as a blow-up does (the
+  // outputs end with the frames so far, run.json and summary.png name the error, no checkpoint
+  // stays) and run_scene rethrows its exception. The Python module's callbacks and Ctrl-C.
+  std::function<void(Simulator&, const FrameRecord&)> on_frame;
+  std::function<void()> between_steps;
 };
 
 struct RunReport {

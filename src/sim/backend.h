@@ -35,6 +35,12 @@ class Backend {
   virtual bool can_checkpoint() const { return false; }
   virtual void save(ByteWriter& out) { (void)out; }
   virtual void restore(ByteReader& in, uint64_t steps) { (void)in, (void)steps; }
+  // Edits between steps (Simulator::set_state, pin, move_obstacle): whether the backend takes them,
+  // and the state at the current step replaced (the displacement bound starting over from it). The
+  // model's inv_mass and the obstacles' poses are read from the host every step by a backend that
+  // takes edits.
+  virtual bool can_edit() const { return false; }
+  virtual void replace_state(const std::vector<Vec3>& x, const std::vector<Vec3>& v) { (void)x, (void)v; }
 };
 
 struct BackendInput {

@@ -61,6 +61,18 @@ class CpuBackend final : public Backend {
 
   bool can_checkpoint() const override { return true; }
 
+  bool can_edit() const override { return true; }
+
+  // As the constructor starts: the bound's balls at x with no room, so the first step refreshes it.
+  void replace_state(const std::vector<Vec3>& x, const std::vector<Vec3>& v) override {
+    st_.x[st_.cur] = x;
+    st_.v[st_.cur] = v;
+    st_.x_ref = x;
+    std::fill(st_.bound.begin(), st_.bound.end(), 0u);
+    std::fill(st_.bound_radius.begin(), st_.bound_radius.end(), 0.0f);
+    st_.bound_age[0] = 0;
+  }
+
   void save(ByteWriter& out) override {
     out.u64(model_.num_vertices());
     const int c = st_.cur, nx = c ^ 1;

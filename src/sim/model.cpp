@@ -790,8 +790,9 @@ void resolve_attachments(ClothModel& m, const ObstacleSet& obstacles, const Scen
         }
       }
       // The damping is explicit too: past 2 m / dt it overshoots and grows.
+      // (The implicit integrator takes the damping into its solve: stable at any dt.)
       const double damping_limit = 2.0 * double(m.mass[ci]) / s.time.dt;
-      if (double(ad.damping) >= damping_limit)
+      if (s.time.integrator == Integrator::Explicit && double(ad.damping) >= damping_limit)
         throw InputError(s.source, field + "/damping",
                          fmt::format("{:g} N s/m is unstable at dt = {:g} s on an attached vertex of {:g} kg; "
                                      "keep it below 2 m / dt = {:g}",
@@ -931,6 +932,35 @@ void ObstacleSet::pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec
       if (moving) velocities[gi] = to_vec3(mo.velocity) + cross(omega, vertices[gi] - xf.translation);
     }
   }
+  for (size_t oi = 0; oi < scripted.size(); ++oi) {
+    const Scripted& s = scripted[oi];
+    if (s.to.empty()) continue;
+    const bool moving = t > s.t0 && t <= s.t1;  // the velocity of the move, up to its end
+    const float u = t >= s.t1 ? 1.0f : t > s.t0 ? float((t - s.t0) / (s.t1 - s.t0)) : 0.0f;
+    const float inv_duration = float(1.0 / (s.t1 - s.t0));
+    for (size_t i = 0; i < s.to.size(); ++i) {
+      const size_t gi = first_vertex[oi] + i;
+      const Vec3 d = s.to[i] - s.from[i];
+      vertices[gi] = u == 1.0f ? s.to[i] : s.from[i] + d * u;
+      velocities[gi] = moving ? d * inv_duration : make_vec3(0, 0, 0);
+    }
+  }
+}
+
+}  // namespace raycloth
+
+namespace raycloth {
+
+double ObstacleSet::max_speed(double duration, double every) const {
+  if (!any_moving) return 0.0;
+  std::vector<Vec3> x, v;
+  double fastest = 0.0;
+  const long samples = std::max(1L, long(std::ceil(duration / every)));
+  for (long k = 0; k <= samples; ++k) {
+    pose_at(std::min(duration, double(k) * every), x, v);
+    for (const Vec3& u : v) fastest = std::max(fastest, double(length(u)));
+  }
+  return fastest;
 }
 
 }  // namespace raycloth

@@ -132,9 +132,19 @@ struct ObstacleSet {
   // the exact check use world.indices alone.
   std::vector<uint32_t> collision_indices;
   uint32_t holes_found = 0, holes_capped = 0, cap_triangles = 0;
+  // Obstacles moved by hand between steps (Simulator::move_obstacle): per obstacle (empty `to`:
+  // none), its vertices go from `from` at t0 to `to` at t1 in a straight line, then stay at `to`.
+  struct Scripted {
+    double t0 = 0, t1 = 0;
+    std::vector<Vec3> from, to;
+  };
+  std::vector<Scripted> scripted;
   uint32_t num_collision_triangles() const { return uint32_t(collision_indices.size() / 3); }
   // World-space vertices and per-vertex velocities at simulated time t.
   void pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec3>& velocities) const;
+  // The fastest any obstacle vertex moves over [0, duration], sampled every `every` seconds (and at
+  // the end), m/s; 0 when nothing moves.
+  double max_speed(double duration, double every) const;
   // A skinned obstacle's joint matrices at simulated time t with its transform applied (`pose`), and
   // their rate of change per second (`rate`: from the poses 0.5 ms either side, one-sided at t = 0).
   // skin_obstacle_vertex turns them into a vertex's world position and surface velocity.

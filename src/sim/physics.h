@@ -84,7 +84,7 @@ RC_HD Vec3 solve_sym3(const Sym3& h, Vec3 b) {
 // xn (its own included), its start x, v, the inertial target y_i, and an attachment's target point
 // and velocity with stiffness ka and damping kad (ka = kad = 0 for none).
 RC_HD Vec3 vbd_vertex(const ModelView& m, const Vec3* x, const Vec3* xn, uint32_t i, Vec3 y, float dt, float sew,
-                      Vec3 attach_target, Vec3 attach_velocity, float ka, float kad) {
+                      Vec3 attach_target, Vec3 attach_velocity, float ka, float kad, Sym3* h_out = nullptr) {
   const float mass = 1.0f / m.inv_mass[i];
   const float inertia = mass / (dt * dt), drag = mass * m.damping[i] / dt;
   const Vec3 xi = xn[i], vi = (xi - x[i]) / dt;
@@ -111,7 +111,32 @@ RC_HD Vec3 vbd_vertex(const ModelView& m, const Vec3* x, const Vec3* xn, uint32_
     g -= (attach_target - xi) * ka + (attach_velocity - vi) * kad;
     add_identity(h, ka + kad / dt);
   }
+  if (h_out) *h_out = h;
   return xi - solve_sym3(h, g);
+}
+
+// Contact with a body inside the block step: the vertex's new position y (from vbd_vertex, whose
+// block Hessian is h) is kept on the outer side of the plane n . p >= offset, the body's tangent
+// plane lifted by the thickness. Where y lies behind it, the block's minimiser on the plane is
+//   z = y + H^-1 n lambda,  lambda = (offset - n . y) / (n^T H^-1 n),
+// lambda being the normal force the body gives; then Coulomb friction: the vertex's slide along the
+// plane relative to the surface (start x, surface velocity w) is taken off as far as mu lambda can,
+// the force to stop a slide u being inertia |u| (inertia: m/dt^2 + m c/dt, the block's own term:
+// the cloth around slides with the vertex, so its springs do not resist the slide; counting them,
+// a sheet on a slope slid as if there were no friction). A vertex in front of the plane is untouched.
+RC_HD Vec3 plane_project(Vec3 y, Vec3 x, const Sym3& h, Vec3 n, float offset, Vec3 w, float dt, float mu, float inertia) {
+  const float gap = offset - dot(n, y);
+  if (!(gap > 0.0f)) return y;
+  const Vec3 hn = solve_sym3(h, n);
+  const float nhn = dot(n, hn);
+  if (!(nhn > 0.0f)) return y;
+  const float lambda = gap / nhn;
+  Vec3 z = y + hn * lambda;
+  Vec3 u = z - x - w * dt;
+  u -= n * dot(n, u);
+  const float slide = length(u);
+  if (slide > 0.0f && inertia > 0.0f) z -= u * fminf(1.0f, mu * lambda / (inertia * slide));
+  return z;
 }
 
 }  // namespace raycloth

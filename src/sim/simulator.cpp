@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "sim/model_check.h"
 #include "core/bytes.h"
@@ -52,7 +53,27 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
     spdlog::warn("{} (allowed by request)", why);
   }
 
-  const BackendInput in{&scene_, model_.get(), obstacles_.get()};
+  // The implicit integrator's long steps are cut where a body moves: the contact that pushes cloth in
+  // layers out of a moving body (the response, the two-sided solve and the bound's passes) keeps
+  // every vertex out only while a body point moves at most about a millimetre per step (a sphere at
+  // 2 m/s through three hanging layers 8 mm apart: clean at 0.6 mm per step, 1 to 2 vertices left
+  // inside at 0.8 mm and more, with either integrator), so each step is done in as many substeps as
+  // keep the fastest body point within kImplicitMaxBodyMove per substep. The backend steps the
+  // substeps; this class counts whole steps.
+  step_scene_ = scene_;
+  if (!expl && obstacles_->any_moving) {
+    const double speed = obstacles_->max_speed(scene_.time.duration, std::min(scene_.time.dt, 1.0 / 120.0));
+    substeps_ = int(std::max(1.0, std::ceil(speed * scene_.time.dt / kImplicitMaxBodyMove - 1e-9)));
+    step_scene_.time.dt = scene_.time.dt / double(substeps_);
+    // A substep's solve starts nearer its answer (k dt^2 / m is substeps^2 times smaller): the sweeps
+    // are shared out among the substeps, at least kMinSubstepSweeps each.
+    step_scene_.time.iterations =
+        std::max(std::min(kMinSubstepSweeps, scene_.time.iterations), (scene_.time.iterations + substeps_ - 1) / substeps_);
+    if (substeps_ > 1)
+      spdlog::info("implicit integrator: {} substeps of {:g} s per step (the fastest body point moves at {:.3g} m/s)",
+                   substeps_, step_scene_.time.dt, speed);
+  }
+  const BackendInput in{&step_scene_, model_.get(), obstacles_.get()};
   if (options.device == "cpu") {
     backend_ = make_cpu_backend(in);
   } else if (options.device == "cuda") {
@@ -78,7 +99,9 @@ std::string Simulator::device() const { return backend_->name(); }
 
 void Simulator::step(int n) {
   if (n <= 0) return;
-  const StepResult r = backend_->step(n, steps_, times_);
+  const uint64_t k = uint64_t(substeps_);
+  StepResult r = backend_->step(n * substeps_, steps_ * k, times_);
+  if (r.bad_vertex >= 0) r.bad_step /= k;
   synced_ = false;
   last_hits_ = r.hits;
   pushed_total_ += r.pushed;
@@ -133,7 +156,7 @@ void Simulator::restore_state(ByteReader& in) {
     *v = in.u64();
   max_residual_ = in.f64();
   in.pod(times_);
-  backend_->restore(in, steps_);
+  backend_->restore(in, steps_ * uint64_t(substeps_));
   synced_ = false;
 }
 

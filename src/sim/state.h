@@ -38,6 +38,10 @@ struct SimState {
   // The implicit integrator's Chebyshev acceleration: the iterate before the last sweep and the one
   // before that.
   Array<Vec3> x_sweep, x_sweep_prev;
+  // And its contact with the bodies inside the solve (stage_implicit_plane): per vertex the plane
+  // it is kept above (normal, 0 for none; offset), and the body surface's velocity there.
+  Array<Vec3> plane_normal, plane_velocity;
+  Array<float> plane_offset;
   // Two-sided contact (sim/contact.h): clearance from the obstacles, how far the solve moved each
   // vertex, the pair slots and the list of those in use, the fixed-point sums of a round.
   Array<float> clearance, contact_shift;
@@ -68,6 +72,9 @@ struct SimState {
     x_mid = Array<Vec3>(zero);
     x_sweep = Array<Vec3>(zero);
     x_sweep_prev = Array<Vec3>(zero);
+    plane_normal = Array<Vec3>(zero);
+    plane_velocity = Array<Vec3>(zero);
+    plane_offset = Array<float>(std::vector<float>(n, 0.0f));
     clearance = Array<float>(std::vector<float>(n, 0.0f));
     contact_shift = Array<float>(std::vector<float>(n, 0.0f));
     const size_t slots = n * kVertexPairs + size_t(m.num_edges()) * kEdgePairs;
@@ -101,6 +108,9 @@ struct SimState {
     s.x_mid = x_mid.data();
     s.x_sweep = x_sweep.data();
     s.x_sweep_prev = x_sweep_prev.data();
+    s.plane_normal = plane_normal.data();
+    s.plane_velocity = plane_velocity.data();
+    s.plane_offset = plane_offset.data();
     s.clearance = clearance.data();
     s.contact_shift = contact_shift.data();
     s.pairs = pairs.data();

@@ -123,6 +123,7 @@ void run_integrate(Exec& ex, const StepView& s) {
     return;
   }
   ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_begin(s, i); });
+  ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_plane(s, i); });
   for (uint32_t sweep = 0; sweep < s.iterations; ++sweep) {
     const bool last = sweep + 1 == s.iterations;
     ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_sweep_save(s, i); });
