@@ -175,7 +175,7 @@ uint32_t write_drape_specimen(const std::filesystem::path& obj, const DrapeOptio
   for (int k = 1; k <= free_rings; ++k) radii.push_back(o.disk_radius + (o.specimen_radius - o.disk_radius) * k / free_rings);
   const int n = o.sectors;
   std::string text = "# Cusick drape specimen: rings of vertices, the clamped ones first\nv 0 0 0\n";
-  uint32_t seed = 12345u;
+  uint32_t seed = o.seed;
   for (size_t k = 0; k < radii.size(); ++k)
     for (int i = 0; i < n; ++i) {
       const double phi = 2 * kPi * i / n;

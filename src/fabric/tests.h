@@ -61,6 +61,7 @@ struct DrapeOptions {
   int sectors = 96;         // vertices around each ring
   double ring_spacing = 0.006;  // metres between rings outside the disk
   double perturbation = 2e-4;   // metres: a small seeded vertical noise that lets the folds choose where to form
+  uint32_t seed = 12345u;       // of that noise
   bool gravity = true;          // false: the specimen stays flat (the test of the shadow's area)
   Stepping stepping;
 };
