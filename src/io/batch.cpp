@@ -72,22 +72,34 @@ json::json_pointer scene_pointer(const Sweep& s, const std::string& section, con
   } catch (const json::exception& e) {
     throw InputError(s.file, field, fmt::format("'{}' is not a JSON pointer: {}", key, json_message(e)));
   }
-  const json::json_pointer parent = p.parent_pointer();
+  // Walk down to the field's parent: every step must exist (a list's element by its index).
   const std::string scene = s.scene_file.string();
-  if (!s.base.contains(parent))
-    throw InputError(s.file, field, fmt::format("the scene {} has no {}", scene, parent.to_string()));
-  const json& container = s.base.at(parent);
-  if (container.is_object()) return p;
-  if (container.is_array()) {
-    const std::string last = p.back();
-    const bool digits = !last.empty() && last.find_first_not_of("0123456789") == std::string::npos;
-    if (digits && (last == "0" || last[0] != '0') && last.size() < 10 && std::stoul(last) < container.size()) return p;
-    throw InputError(s.file, field,
-                     fmt::format("the scene {} has no {} ({} has {} elements)", scene, key,
-                                 parent.to_string().empty() ? "/" : parent.to_string(), container.size()));
+  std::vector<std::string> tokens;
+  for (json::json_pointer q = p; !q.empty(); q.pop_back()) tokens.insert(tokens.begin(), q.back());
+  const json* at = &s.base;
+  std::string walked;
+  for (size_t t = 0; t < tokens.size(); ++t) {
+    const std::string& tok = tokens[t];
+    const bool last = t + 1 == tokens.size();
+    const std::string here = walked.empty() ? "/" : walked;
+    walked.append("/").append(pointer_token(tok));
+    if (at->is_object()) {
+      if (last) return p;  // a field the scene leaves to its default may be set
+      if (!at->contains(tok)) throw InputError(s.file, field, fmt::format("the scene {} has no {}", scene, walked));
+      at = &(*at)[tok];
+    } else if (at->is_array()) {
+      const bool digits = !tok.empty() && tok.size() < 10 && tok.find_first_not_of("0123456789") == std::string::npos &&
+                          (tok == "0" || tok[0] != '0');
+      if (!digits || std::stoul(tok) >= at->size())
+        throw InputError(s.file, field,
+                         fmt::format("the scene {} has no {} ({} is a list of {})", scene, walked, here, at->size()));
+      if (last) return p;
+      at = &(*at)[std::stoul(tok)];
+    } else {
+      throw InputError(s.file, field, fmt::format("the scene {} has no {} ({} is a {})", scene, walked, here, at->type_name()));
+    }
   }
-  throw InputError(s.file, field, fmt::format("the scene {} has no {} ({} is a {})", scene, key, parent.to_string(),
-                                              container.type_name()));
+  throw InputError(s.file, field, "names the whole scene; name a field in it");
 }
 
 // An exclusive lock on OUT/.lock for as long as it lives.
