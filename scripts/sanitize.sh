@@ -13,5 +13,6 @@ export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 # The contact scenes of test_contact.cpp and the skirt's time-step sweep (minutes of simulation in
 # Release, far more under the sanitizers) run in the main suite only; the solve's unit tests run here.
+# So do the Slurm test (daemons) and the batch test that kills a case halfway (timed on Release speed).
 ctest --test-dir build-asan --output-on-failure --no-tests=error -j 2 --timeout 1500 \
-      -E 'ContactSolve(Implicit)?\.(BoxSliding|FastSphere|LayersSqueezed)|Holes\.CapeDoesNotSlip|WalkingSkirt\.CleanWhereOneSidedContactFailed' 
+      -E 'ContactSolve(Implicit)?\.(BoxSliding|FastSphere|LayersSqueezed)|Holes\.CapeDoesNotSlip|WalkingSkirt\.CleanWhereOneSidedContactFailed|SlurmBatch|Batch\.KilledCaseResumesFromItsCheckpoint' 
