@@ -286,6 +286,10 @@ TEST(Batch, KilledCaseResumesFromItsCheckpoint) {
   ASSERT_TRUE(fs::exists(checkpoint));
   ASSERT_TRUE(fs::exists(out / "claims" / "00000"));  // the dead process's claim
   EXPECT_FALSE(fs::exists(out / "results.jsonl"));
+  const Result resume = run_cli("resume " + (out / "cases" / "00000").string(), dir);
+  EXPECT_EQ(resume.code, 2);
+  EXPECT_EQ(resume.err, "raycloth: error: " + checkpoint.string() + ": is a case of the sweep " + sweep +
+                            "; resume it with `raycloth batch SWEEP --out DIR` (it continues from this checkpoint)\n");
 
   EXPECT_EQ(wait_exit(spawn_cli(with_out(out), dir / "resumed.log")), 0) << slurp(dir / "resumed.log");
   EXPECT_EQ(wait_exit(spawn_cli(with_out(whole), dir / "whole.log")), 0) << slurp(dir / "whole.log");
@@ -324,4 +328,31 @@ TEST(Batch, ConcurrentProcessesNeverRunTheSameCase) {
   EXPECT_EQ(lines.size(), 6u);
   for (int i = 0; i < 6; ++i) EXPECT_EQ(ids.count(i), 1u) << i;
   EXPECT_TRUE(fs::is_empty(out / "claims"));
+}
+
+// A claim is respected while its process lives (here: this test's own pid) or, from another host,
+// until --stale-after finds it untouched for longer than it allows.
+TEST(Batch, LiveClaimsAreRespectedStaleOnesTakenOver) {
+  const fs::path dir = fresh_dir("claims"), out = dir / "out";
+  const std::string sweep = (kData / "sweep.json").string();
+  const std::string run = "batch " + sweep + " --out " + out.string() + " --index 1";
+  fs::create_directories(out / "claims");
+  write(out / "claims" / "00001", std::to_string(getpid()) + " " + [] {
+    char h[256] = {};
+    gethostname(h, sizeof h - 1);
+    return std::string(h);
+  }() + " 0\n");
+  Result r = run_cli(run, dir);
+  EXPECT_EQ(r.code, 4) << r.err;  // held by a live process
+  EXPECT_FALSE(raycloth::read_case_result(out, 1));
+  write(out / "claims" / "00001", "1 some-other-host 0\n");
+  r = run_cli(run + " --stale-after 60", dir);
+  EXPECT_EQ(r.code, 4) << r.err;  // another host's claim, touched just now
+  fs::last_write_time(out / "claims" / "00001", fs::file_time_type::clock::now() - std::chrono::minutes(5));
+  r = run_cli(run, dir);
+  EXPECT_EQ(r.code, 4) << r.err;  // without --stale-after, another host's claim stays
+  r = run_cli(run + " --stale-after 60", dir);
+  EXPECT_EQ(r.code, 0) << r.err;  // untouched for 5 minutes: taken over
+  ASSERT_TRUE(raycloth::read_case_result(out, 1));
+  EXPECT_FALSE(fs::exists(out / "claims" / "00001"));
 }
