@@ -15,5 +15,6 @@ export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 # time-step sweep, the exact check's and the collision tests' longest drapes, the fabric tests'
 # cantilever and pull, the browser tests: minutes each in Release, far more under the sanitizers)
 # run in the main suite only; every unit test and the shorter scenes of the same code run here.
+# So do the Slurm test (daemons) and the batch test that kills a case halfway (timed on Release speed).
 ctest --test-dir build-asan --output-on-failure --no-tests=error -j 2 --timeout 1500 \
-      -E 'ContactSolve(Implicit)?\.(BoxSliding|FastSphere|LayersSqueezed)|Holes\.CapeDoesNotSlip|WalkingSkirt\.CleanWhereOneSidedContactFailed|FabricTest\.(Cantilever|TensilePull)|FabricCli\.CantileverAndTensile|ViewBrowser\.|ExactCheckScenes\.(StackedSheetsOnABox|EveryShippedSceneStartsClean|DefaultSceneFirstSecond|SphereSpinning)|BvhTrace\.DrapeWithTheBvh|Collision\.(ClothDroppedOnSphere|SphereMovingThroughCurtain)|Cli\.DefaultSceneShortened' 
+      -E 'ContactSolve(Implicit)?\.(BoxSliding|FastSphere|LayersSqueezed)|Holes\.CapeDoesNotSlip|WalkingSkirt\.CleanWhereOneSidedContactFailed|FabricTest\.(Cantilever|TensilePull)|FabricCli\.CantileverAndTensile|ViewBrowser\.|ExactCheckScenes\.(StackedSheetsOnABox|EveryShippedSceneStartsClean|DefaultSceneFirstSecond|SphereSpinning)|BvhTrace\.DrapeWithTheBvh|Collision\.(ClothDroppedOnSphere|SphereMovingThroughCurtain)|Cli\.DefaultSceneShortened|SlurmBatch|Batch\.KilledCaseResumesFromItsCheckpoint' 

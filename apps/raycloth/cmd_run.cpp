@@ -60,6 +60,10 @@ RunArgs args_from_checkpoint(const std::string& dir) {
   const std::string file = (std::filesystem::path(dir) / kCheckpointName).string();
   try {
     const nlohmann::json j = nlohmann::json::parse(cp.header.invocation);
+    if (j.contains("batch"))  // a case of a sweep: its scene is the sweep's, not a file
+      throw InputError(file, "",
+                       "is a case of the sweep " + j["batch"].get<std::string>() +
+                           "; resume it with `raycloth batch SWEEP --out DIR` (it continues from this checkpoint)");
     RunArgs a;
     a.scene = j.at("scene").get<std::string>();
     a.device = j.at("device").get<std::string>();

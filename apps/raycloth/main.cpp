@@ -48,6 +48,7 @@ int main(int argc, char** argv) {
   raycloth::cli::Action check = raycloth::cli::add_check_command(app);
   raycloth::cli::Action fabric = raycloth::cli::add_fabric_command(app);
   raycloth::cli::Action view = raycloth::cli::add_view_command(app);
+  raycloth::cli::Action batch = raycloth::cli::add_batch_command(app);
   CLI11_PARSE(app, argc, argv);
   for (auto* sub : app.get_subcommands()) {
     if (sub->get_name() == "run") return run();
@@ -57,6 +58,7 @@ int main(int argc, char** argv) {
     if (sub->get_name() == "check") return check();
     if (sub->get_name() == "fabric-test") return fabric();
     if (sub->get_name() == "view") return view();
+    if (sub->get_name() == "batch") return batch();
   }
   return 1;
 }

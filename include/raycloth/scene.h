@@ -2,6 +2,8 @@
 // (docs/scenes.md) or built in code. Nothing here simulates; see simulator.h.
 #pragma once
 #include <array>
+#include <filesystem>
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -217,6 +219,9 @@ struct SceneDef {
 SceneDef load_scene_file(const std::string& path);
 // Parses scene text; `origin` names it in errors and resolves relative mesh paths.
 SceneDef parse_scene(const std::string& text, const std::string& origin);
+// Parses a scene already read as JSON (a sweep's case): `origin` names it in errors, `dir` resolves
+// relative mesh paths.
+SceneDef parse_scene(const nlohmann::json& scene, const std::string& origin, const std::filesystem::path& dir);
 // The paper's experiment (scenes/seed_drape.json, compiled in).
 SceneDef default_scene();
 // Checks cross-references and ranges; throws InputError. parse_scene calls it.

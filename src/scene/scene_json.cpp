@@ -587,7 +587,11 @@ SceneDef parse_scene(const std::string& text, const std::string& origin) {
     // nlohmann: "number overflow parsing '1e400'", raised while the value is being read.
     throw InputError(origin, where.pointer(), without_json_exception_tags(e.what()) + ": not a finite number");
   }
-  Reader reader(origin, std::filesystem::path(origin).parent_path());
+  return parse_scene(j, origin, std::filesystem::path(origin).parent_path());
+}
+
+SceneDef parse_scene(const json& j, const std::string& origin, const std::filesystem::path& dir) {
+  Reader reader(origin, dir);
   SceneDef scene = reader.scene(j);
   validate_scene(scene);
   return scene;
