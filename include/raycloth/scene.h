@@ -63,12 +63,25 @@ struct TransformDef {
   Float3 scale{1, 1, 1};
 };
 
+// A circular arc from a segment's start to its end: the circle of `radius` through both ends
+// (a radius under half the chord is taken as half the chord), the arc of more than 180 degrees when
+// `large`, run counter-clockwise in the pattern's plane when `ccw` (centre left of the direction of
+// travel for a small arc, so the arc bulges to the right of the chord).
+struct OutlineArc {
+  float radius = 0;  // metres
+  bool large = false;
+  bool ccw = false;
+};
+
 // One piece of a pattern outline: from `from` to the next segment's `from` (the last segment
-// closes the outline), a straight line, or a quadratic Bezier curve when `control` is given.
+// closes the outline), a straight line, a quadratic Bezier curve when `control` is given, a cubic
+// one when `control2` is given too, or a circular arc when `arc` is given.
 struct OutlineSegment {
   std::string name;                                // how seams, pins and attachments refer to it
   std::array<float, 2> from{0, 0};                 // metres, in the pattern's plane
-  std::optional<std::array<float, 2>> control;     // curve control point
+  std::optional<std::array<float, 2>> control;     // curve control point (a cubic's first)
+  std::optional<std::array<float, 2>> control2;    // a cubic's second control point
+  std::optional<OutlineArc> arc;
 };
 
 // A sewing-pattern piece: a closed outline meshed to a target edge length. The pattern's plane

@@ -33,15 +33,46 @@ P2 lerp(const P2& a, const P2& b, double t) { return {a[0] + (b[0] - a[0]) * t, 
 double dist(const P2& a, const P2& b) { return std::hypot(b[0] - a[0], b[1] - a[1]); }
 P2 p2(const std::array<float, 2>& a) { return {double(a[0]), double(a[1])}; }
 
-// A quadratic Bezier (or a line without control) from a to b as a fine polyline.
-std::vector<P2> fine_curve(const P2& a, const P2& b, const std::optional<std::array<float, 2>>& control) {
-  if (!control) return {a, b};
-  const P2 c = p2(*control);
+// A segment from a to b (a line, a quadratic or cubic Bezier, or a circular arc) as a fine polyline.
+std::vector<P2> fine_curve(const P2& a, const P2& b, const OutlineSegment& seg) {
+  if (!seg.control && !seg.arc) return {a, b};
   std::vector<P2> pts;
   constexpr int kFine = 256;
+  if (seg.arc) {
+    const double chord = dist(a, b);
+    const double r = std::max(double(seg.arc->radius), 0.5 * chord);
+    // Centre on the chord's bisector: left of the direction of travel for a small counter-clockwise
+    // arc or a large clockwise one.
+    const P2 mid = lerp(a, b, 0.5);
+    const P2 left = {-(b[1] - a[1]) / chord, (b[0] - a[0]) / chord};
+    const double h = std::sqrt(std::max(0.0, r * r - 0.25 * chord * chord));
+    const double side = (seg.arc->ccw != seg.arc->large) ? 1.0 : -1.0;
+    const P2 c = {mid[0] + side * h * left[0], mid[1] + side * h * left[1]};
+    const double t0 = std::atan2(a[1] - c[1], a[0] - c[0]);
+    double sweep = std::atan2(b[1] - c[1], b[0] - c[0]) - t0;
+    if (seg.arc->ccw) {
+      while (sweep <= 0) sweep += 2 * M_PI;
+    } else {
+      while (sweep >= 0) sweep -= 2 * M_PI;
+    }
+    for (int i = 0; i <= kFine; ++i) {
+      const double t = t0 + sweep * double(i) / kFine;
+      pts.push_back({c[0] + r * std::cos(t), c[1] + r * std::sin(t)});
+    }
+    pts.front() = a;
+    pts.back() = b;
+    return pts;
+  }
+  const P2 c = p2(*seg.control);
   for (int i = 0; i <= kFine; ++i) {
     const double t = double(i) / kFine;
-    pts.push_back(lerp(lerp(a, c, t), lerp(c, b, t), t));
+    if (seg.control2) {
+      const P2 d = p2(*seg.control2);
+      const P2 ab = lerp(a, c, t), bc = lerp(c, d, t), cd = lerp(d, b, t);
+      pts.push_back(lerp(lerp(ab, bc, t), lerp(bc, cd, t), t));
+    } else {
+      pts.push_back(lerp(lerp(a, c, t), lerp(c, b, t), t));
+    }
   }
   return pts;
 }
@@ -74,11 +105,27 @@ std::vector<std::vector<P2>> sample_outline(const PatternDef& pattern) {
   std::vector<std::vector<P2>> out(n);
   for (size_t k = 0; k < n; ++k) {
     const OutlineSegment& seg = pattern.outline[k];
-    const auto fine = fine_curve(p2(seg.from), p2(pattern.outline[(k + 1) % n].from), seg.control);
+    const auto fine = fine_curve(p2(seg.from), p2(pattern.outline[(k + 1) % n].from), seg);
     const int pieces = std::max(1, int(std::ceil(fine_length(fine) / double(pattern.edge_length) - 1e-9)));
     out[k] = resample(fine, pieces);
   }
   return out;
+}
+
+std::vector<P2> fine_outline(const PatternDef& pattern) {
+  const size_t n = pattern.outline.size();
+  std::vector<P2> out;
+  for (size_t k = 0; k < n; ++k) {
+    const auto fine = fine_curve(p2(pattern.outline[k].from), p2(pattern.outline[(k + 1) % n].from), pattern.outline[k]);
+    out.insert(out.end(), fine.begin(), fine.end() - 1);
+  }
+  return out;
+}
+
+bool outline_is_simple(const PatternDef& pattern) {
+  CGAL::Polygon_2<K> polygon;
+  for (const P2& p : fine_outline(pattern)) polygon.push_back(K::Point_2(p[0], p[1]));
+  return polygon.size() >= 3 && polygon.is_simple();
 }
 
 PatternMesh mesh_pattern(const PatternDef& pattern,
@@ -96,6 +143,12 @@ PatternMesh mesh_pattern(const PatternDef& pattern,
     if (!std::isfinite(seg.from[0]) || !std::isfinite(seg.from[1])) fail(f + "/from", "must be finite");
     if (seg.control && (!std::isfinite((*seg.control)[0]) || !std::isfinite((*seg.control)[1])))
       fail(f + "/control", "must be finite");
+    if (seg.control2 && !seg.control) fail(f + "/control2", "a cubic segment needs control as well");
+    if (seg.control2 && (!std::isfinite((*seg.control2)[0]) || !std::isfinite((*seg.control2)[1])))
+      fail(f + "/control2", "must be finite");
+    if (seg.arc && seg.control) fail(f + "/arc", "a segment is a curve (control) or an arc, not both");
+    if (seg.arc && !(std::isfinite(seg.arc->radius) && seg.arc->radius > 0))
+      fail(f + "/arc/radius", "must be a positive number of metres");
     if (!seg.name.empty() && !names.insert(seg.name).second)
       fail(f + "/name", "duplicate segment name '" + seg.name + "'");
     if (dist(p2(seg.from), p2(pattern.outline[(k + 1) % n].from)) < 1e-9)
@@ -107,7 +160,7 @@ PatternMesh mesh_pattern(const PatternDef& pattern,
   double perimeter = 0;
   for (size_t k = 0; k < n; ++k) {
     const auto fine = fine_curve(p2(pattern.outline[k].from), p2(pattern.outline[(k + 1) % n].from),
-                                 pattern.outline[k].control);
+                                 pattern.outline[k]);
     perimeter += fine_length(fine);
     for (size_t i = 0; i + 1 < fine.size(); ++i) polygon.push_back(K::Point_2(fine[i][0], fine[i][1]));
   }

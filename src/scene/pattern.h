@@ -1,5 +1,5 @@
-// Sewing-pattern pieces: a closed outline in metres (straight segments and sampled quadratic
-// curves) triangulated to a target edge length by CGAL's 2D Delaunay mesher.
+// Sewing-pattern pieces: a closed outline in metres (straight segments, sampled quadratic and cubic
+// Bezier curves and circular arcs) triangulated to a target edge length by CGAL's 2D Delaunay mesher.
 #pragma once
 #include <array>
 #include <cstdint>
@@ -22,6 +22,12 @@ struct PatternMesh {
 // The outline sampled into points: per segment, its points from `from` up to (not including) the
 // next segment's `from`, spaced at most `edge_length` apart along straight lines and curves.
 std::vector<std::vector<std::array<double, 2>>> sample_outline(const PatternDef& pattern);
+
+// The whole outline as a fine closed polygon (each curve as 256 pieces), the last point not repeated.
+std::vector<std::array<double, 2>> fine_outline(const PatternDef& pattern);
+
+// Whether that polygon is simple (CGAL's Polygon_2::is_simple: no crossing, no touching).
+bool outline_is_simple(const PatternDef& pattern);
 
 // Checks the outline (at least 3 segments, finite points, distinct segment names, a simple polygon
 // without crossings, a vertex count that fits) and meshes it. fail(field, reason) must throw; field

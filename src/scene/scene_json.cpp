@@ -19,6 +19,7 @@
 #include "raycloth/error.h"
 #include "raycloth/scene.h"
 #include "fabric/kes.h"
+#include "scene/garmentcode.h"
 #include "scene/json_text.h"
 #include "scene/mesh.h"
 
@@ -84,15 +85,18 @@ class Reader {
   SceneDef scene(const json& j) {
     SceneDef s;
     s.source = file_;
-    object(j, "", {"name", "time", "gravity", "collision", "materials", "panels", "seams", "pins", "sewing",
+    object(j, "", {"name", "time", "gravity", "collision", "materials", "panels", "garments", "seams", "pins", "sewing",
                    "attachments", "obstacles", "output"});
     optional(j, "", "name", [&](const json& v, const std::string& p) { s.name = string(v, p); });
     optional(j, "", "time", [&](const json& v, const std::string& p) { s.time = time(v, p); });
     optional(j, "", "gravity", [&](const json& v, const std::string& p) { s.gravity = float3(v, p); });
     optional(j, "", "collision", [&](const json& v, const std::string& p) { s.collision = collision(v, p); });
     list(j, "", "materials", false, [&](const json& v, const std::string& p, size_t) { s.materials.push_back(material(v, p)); });
-    list(j, "", "panels", true, [&](const json& v, const std::string& p, size_t) { s.panels.push_back(panel(v, p)); });
+    list(j, "", "panels", !j.contains("garments"),
+         [&](const json& v, const std::string& p, size_t) { s.panels.push_back(panel(v, p)); });
     list(j, "", "seams", false, [&](const json& v, const std::string& p, size_t) { s.seams.push_back(seam(v, p)); });
+    // After the file's own panels and seams, so that their indices in messages stay the file's.
+    list(j, "", "garments", false, [&](const json& v, const std::string& p, size_t) { garment(v, p, s); });
     list(j, "", "pins", false, [&](const json& v, const std::string& p, size_t) { s.pins.push_back(pin(v, p)); });
     optional(j, "", "sewing", [&](const json& v, const std::string& p) {
       object(v, p, {"close_time"});
@@ -340,15 +344,70 @@ class Reader {
     object(j, ptr, {"outline", "edge_length", "wrap_radius"});
     list(j, ptr, "outline", true, [&](const json& v, const std::string& p, size_t) {
       OutlineSegment seg;
-      object(v, p, {"name", "from", "control"});
+      object(v, p, {"name", "from", "control", "control2", "arc"});
       optional(v, p, "name", [&](const json& w, const std::string& q) { seg.name = string(w, q); });
       required(v, p, "from", [&](const json& w, const std::string& q) { seg.from = float2(w, q); });
       optional(v, p, "control", [&](const json& w, const std::string& q) { seg.control = float2(w, q); });
+      optional(v, p, "control2", [&](const json& w, const std::string& q) { seg.control2 = float2(w, q); });
+      optional(v, p, "arc", [&](const json& w, const std::string& q) {
+        OutlineArc arc;
+        object(w, q, {"radius", "large", "ccw"});
+        required(w, q, "radius", [&](const json& x, const std::string& r) { arc.radius = number_f(x, r); });
+        optional(w, q, "large", [&](const json& x, const std::string& r) { arc.large = boolean(x, r); });
+        optional(w, q, "ccw", [&](const json& x, const std::string& r) { arc.ccw = boolean(x, r); });
+        seg.arc = arc;
+      });
       pd.outline.push_back(seg);
     });
     required(j, ptr, "edge_length", [&](const json& v, const std::string& p) { pd.edge_length = number_f(v, p); });
     optional(j, ptr, "wrap_radius", [&](const json& v, const std::string& p) { pd.wrap_radius = number_f(v, p); });
     return pd;
+  }
+
+  // A garment from a GarmentCode pattern file: its panels and stitches become pattern panels and
+  // seams (src/scene/garmentcode.h).
+  void garment(const json& j, const std::string& ptr, SceneDef& s) const {
+    object(j, ptr, {"garmentcode", "material", "edge_length", "position", "rotation", "scale", "prefix",
+                    "seam_stiffness", "panels"});
+    GarmentCodeOptions o;
+    std::string file;
+    required(j, ptr, "garmentcode", [&](const json& v, const std::string& p) {
+      const std::filesystem::path f = string(v, p);
+      file = (f.is_absolute() || dir_.empty() ? f : dir_ / f).lexically_normal().string();
+    });
+    required(j, ptr, "material", [&](const json& v, const std::string& p) { o.material = string(v, p); });
+    optional(j, ptr, "edge_length", [&](const json& v, const std::string& p) {
+      o.edge_length = number_f(v, p);
+      if (!(o.edge_length > 0)) fail(p, "must be a positive number of metres");
+    });
+    optional(j, ptr, "position", [&](const json& v, const std::string& p) { o.position = float3(v, p); });
+    optional(j, ptr, "rotation", [&](const json& v, const std::string& p) { o.rotation = float3(v, p); });
+    optional(j, ptr, "scale", [&](const json& v, const std::string& p) {
+      o.scale = number_f(v, p);
+      if (!(o.scale > 0)) fail(p, "must be a positive number");
+    });
+    optional(j, ptr, "prefix", [&](const json& v, const std::string& p) { o.prefix = string(v, p); });
+    optional(j, ptr, "seam_stiffness", [&](const json& v, const std::string& p) { o.seam_stiffness = number_f(v, p); });
+    optional(j, ptr, "panels", [&](const json& v, const std::string& p) {
+      if (!v.is_object()) fail(p, std::string("expected an object of panel options by name, got ") + v.type_name());
+      for (const auto& [name, pv] : v.items()) {
+        const std::string q = p + "/" + pointer_token(name);
+        GarmentCodePanelOptions po;
+        object(pv, q, {"material", "edge_length", "offset"});
+        optional(pv, q, "material", [&](const json& w, const std::string& r) { po.material = string(w, r); });
+        optional(pv, q, "edge_length", [&](const json& w, const std::string& r) { po.edge_length = number_f(w, r); });
+        optional(pv, q, "offset", [&](const json& w, const std::string& r) { po.offset = float3(w, r); });
+        o.panels[name] = po;
+      }
+    });
+    const GarmentCodeGarment g = read_garmentcode(file, o);
+    for (const auto& [name, po] : o.panels) {
+      bool known = false;
+      for (const auto& n : g.file_panel_names) known = known || n == name;
+      if (!known) fail(ptr + "/panels/" + pointer_token(name), "no panel '" + name + "' in '" + file + "'");
+    }
+    s.panels.insert(s.panels.end(), g.panels.begin(), g.panels.end());
+    s.seams.insert(s.seams.end(), g.seams.begin(), g.seams.end());
   }
 
   // Which vertices of a panel: exactly one of a rectangle's edge, a pattern's segment or a mesh

@@ -1,0 +1,294 @@
+// GarmentCode sewing patterns: curve kinds against their analytic shapes, stitch orientation,
+// the four shipped pattern files, and every bad-file message word for word.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+
+#include "fixtures.h"
+#include "raycloth/error.h"
+#include "raycloth/scene.h"
+#include "raycloth/simulator.h"
+#include "scene/garmentcode.h"
+#include "scene/pattern.h"
+#include "sim/model.h"
+
+using namespace raycloth;
+
+namespace {
+
+const std::string kSource = RAYCLOTH_SOURCE_DIR;
+
+template <class F>
+std::string message_of(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+// One panel: a 20 x 20 cm square (vertices (0,0), (20,0), (20,20), (0,20)) whose bottom edge (edge 0,
+// from (0,0) to (20,0)) has the given curvature.
+std::string square_file(const std::string& curvature) {
+  return R"({"properties": {"units_in_meter": 100, "curvature_coords": "relative"},
+    "pattern": {"panels": {"sq": {"translation": [0, 0, 0], "rotation": [0, 0, 0],
+      "vertices": [[0, 0], [20, 0], [20, 20], [0, 20]],
+      "edges": [{"endpoints": [0, 1])" + (curvature.empty() ? "" : ", \"curvature\": " + curvature) + R"(},
+                {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}]}},
+    "stitches": []}})";
+}
+
+GarmentCodeGarment parse(const std::string& text, GarmentCodeOptions o = {}) {
+  if (o.material.empty()) o.material = "m";
+  return parse_garmentcode(text, "gc.json", o);
+}
+
+// The fine polyline of segment 0 of a pattern (from its start to the next segment's start).
+std::vector<std::array<double, 2>> first_segment(const PatternDef& p) {
+  const auto all = fine_outline(p);
+  std::vector<std::array<double, 2>> out;
+  const std::array<double, 2> end = {p.outline[1].from[0], p.outline[1].from[1]};
+  for (const auto& q : all) {
+    out.push_back(q);
+    if (std::abs(q[0] - end[0]) < 1e-9 && std::abs(q[1] - end[1]) < 1e-9) break;
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(GarmentCode, QuadraticEdgeIsTheBezierThroughItsRelativeControlPoint) {
+  // Control [0.5, -0.25]: start + 0.5 (end - start) - 0.25 (-dy, dx) = (10, 0) - 0.25 (0, 20) = (10, -5) cm.
+  const auto g = parse(square_file(R"({"type": "quadratic", "params": [[0.5, -0.25]]})"));
+  ASSERT_EQ(g.panels.size(), 1u);
+  const PatternDef& p = g.panels[0].pattern;
+  ASSERT_TRUE(p.outline[0].control.has_value());
+  EXPECT_FLOAT_EQ((*p.outline[0].control)[0], 0.10f);
+  EXPECT_FLOAT_EQ((*p.outline[0].control)[1], -0.05f);
+  EXPECT_FALSE(p.outline[0].control2.has_value());
+  // On the curve: B(t) = (1-t)^2 a + 2t(1-t) c + t^2 b; its middle is (0.10, -0.025); every fine point
+  // lies on the parabola y = -0.1 x (0.2 - x) / 0.04 (x from 0 to 0.2).
+  const auto pts = first_segment(p);
+  ASSERT_EQ(pts.size(), 257u);
+  EXPECT_NEAR(pts[128][0], 0.10, 1e-7);
+  EXPECT_NEAR(pts[128][1], -0.025, 1e-7);
+  for (const auto& q : pts) EXPECT_NEAR(q[1], -0.1 * q[0] * (0.2 - q[0]) / 0.04, 1e-7);
+}
+
+TEST(GarmentCode, CubicEdgeIsTheBezierThroughItsTwoRelativeControlPoints) {
+  // Controls [0.25, 0.5] and [0.75, -0.5]: (5, 10) and (15, -10) cm.
+  const auto g = parse(square_file(R"({"type": "cubic", "params": [[0.25, 0.5], [0.75, -0.5]]})"));
+  const PatternDef& p = g.panels[0].pattern;
+  ASSERT_TRUE(p.outline[0].control2.has_value());
+  EXPECT_FLOAT_EQ((*p.outline[0].control)[0], 0.05f);
+  EXPECT_FLOAT_EQ((*p.outline[0].control)[1], 0.10f);
+  EXPECT_FLOAT_EQ((*p.outline[0].control2)[0], 0.15f);
+  EXPECT_FLOAT_EQ((*p.outline[0].control2)[1], -0.10f);
+  const auto pts = first_segment(p);
+  ASSERT_EQ(pts.size(), 257u);
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const double t = double(i) / 256, s = 1 - t;
+    const double x = 3 * s * s * t * 0.05 + 3 * s * t * t * 0.15 + t * t * t * 0.2;
+    const double y = 3 * s * s * t * 0.10 - 3 * s * t * t * 0.10;
+    EXPECT_NEAR(pts[i][0], x, 1e-7);
+    EXPECT_NEAR(pts[i][1], y, 1e-7);
+  }
+  // The S-curve: above the chord at t = 1/4 (y = 27/64 * 0.1 - 9/64 * 0.1), below at 3/4.
+  EXPECT_NEAR(pts[64][1], 0.1 * 18.0 / 64.0, 1e-7);
+  EXPECT_NEAR(pts[192][1], -0.1 * 18.0 / 64.0, 1e-7);
+}
+
+TEST(GarmentCode, CircleArcHasItsRadiusSweepAndSide) {
+  // The 20 cm chord from (0,0) to (20,0) on a circle of radius 20 cm: a small arc sweeps
+  // 2 asin(1/2) = 60 degrees, a large one 300. "right": the arc bulges to the right of start -> end
+  // (y < 0 here, below the bottom edge, outside the square); otherwise to the left (into it).
+  struct Case { const char* params; double sweep_deg; double side; };
+  for (const Case& c : {Case{"[20, false, true]", 60, -1}, Case{"[20, 0, 0]", 60, 1}}) {
+    SCOPED_TRACE(c.params);
+    const auto g = parse(square_file(std::string(R"({"type": "circle", "params": )") + c.params + "}"));
+    const PatternDef& p = g.panels[0].pattern;
+    ASSERT_TRUE(p.outline[0].arc.has_value());
+    EXPECT_FLOAT_EQ(p.outline[0].arc->radius, 0.2f);
+    const auto pts = first_segment(p);
+    ASSERT_EQ(pts.size(), 257u);
+    // Centre on the bisector at distance sqrt(r^2 - (chord/2)^2) on the side away from the bulge.
+    const double cx = 0.1, cy = -c.side * std::sqrt(0.04 - 0.01);
+    for (const auto& q : pts) EXPECT_NEAR(std::hypot(q[0] - cx, q[1] - cy), 0.2, 1e-6);
+    double sweep = 0;
+    for (size_t i = 1; i < pts.size(); ++i) {
+      double d = std::atan2(pts[i][1] - cy, pts[i][0] - cx) - std::atan2(pts[i - 1][1] - cy, pts[i - 1][0] - cx);
+      if (d > M_PI) d -= 2 * M_PI;
+      if (d < -M_PI) d += 2 * M_PI;
+      sweep += d;
+    }
+    EXPECT_NEAR(std::abs(sweep) * 180 / M_PI, c.sweep_deg, 1e-6);
+    EXPECT_NEAR(pts[128][1], c.side * (0.2 - std::sqrt(0.03)), 1e-6);  // the arc's middle, the sagitta off the chord
+  }
+  // A large arc (300 degrees) bulging right would loop around below the square without crossing.
+  {
+    const auto g = parse(square_file(R"({"type": "circle", "params": [20, true, true]})"));
+    const auto pts = first_segment(g.panels[0].pattern);
+    const double cx = 0.1, cy = -std::sqrt(0.03);
+    for (const auto& q : pts) EXPECT_NEAR(std::hypot(q[0] - cx, q[1] - cy), 0.2, 1e-6);
+    EXPECT_NEAR(pts[128][1], cy - 0.2, 1e-6);  // the far side of the circle
+  }
+}
+
+TEST(GarmentCode, PanelsArePlacedByTheFileThenByTheGarmentTransform) {
+  // The square turned 90 degrees about y and moved 10 cm along x by the file; the garment then
+  // turned 90 degrees about y again, scaled by 2 and moved up 1 m. The vertex (20, 0) cm goes to
+  // file: Ry(90) (20, 0, 0) + (10, 0, 0) = (10, 0, -20) cm; garment: Ry(90) 2 (0.1, 0, -0.2) + (0, 1, 0)
+  // = (-0.4, 1, -0.2) m.
+  std::string text = square_file("");
+  auto swap = [&](const std::string& from, const std::string& to) { text.replace(text.find(from), from.size(), to); };
+  swap(R"("rotation": [0, 0, 0])", R"("rotation": [0, 90, 0])");
+  swap(R"("translation": [0, 0, 0])", R"("translation": [10, 0, 0])");
+  GarmentCodeOptions o;
+  o.rotation = {0, 90, 0};
+  o.scale = 2;
+  o.position = {0, 1, 0};
+  const auto g = parse(text, o);
+  const PanelDef& pd = g.panels[0];
+  EXPECT_FLOAT_EQ(pd.pattern.outline[1].from[0], 0.4f);  // the pattern itself is scaled
+  SceneDef s;
+  s.materials.push_back({});
+  s.materials[0].name = "m";
+  s.panels = g.panels;
+  s.panels[0].pattern.edge_length = 0.2f;
+  const ClothModel m = build_cloth_model(s);
+  bool found = false;
+  for (size_t i = 0; i < m.rest_positions.size(); ++i)
+    if (std::abs(m.rest_positions[i].x - 0.4f) < 1e-6f && std::abs(m.rest_positions[i].y) < 1e-6f) {
+      found = true;
+      EXPECT_NEAR(m.initial_positions[i].x, -0.4f, 1e-5f);
+      EXPECT_NEAR(m.initial_positions[i].y, 1.0f, 1e-5f);
+      EXPECT_NEAR(m.initial_positions[i].z, -0.2f, 1e-5f);
+    }
+  EXPECT_TRUE(found);
+}
+
+TEST(GarmentCode, StitchSewsTheFirstEdgesEndToTheSecondsStartUnlessRightWrong) {
+  // Two 10 cm squares side by side in the x-y plane, a at x 0..10, b at x 20..30 cm. a's right
+  // edge (edge 1) runs up from (10, 0); b's left edge (edge 3) runs down from (20, 10). Stitched as
+  // in GarmentCode, a's end (10, 10) meets b's start (20, 10): the bottom corners pair, the top
+  // corners pair. With right_wrong, start meets start: a's (10, 0) with b's (20, 10).
+  auto file = [](const std::string& extra) {
+    return R"({"pattern": {"panels": {
+      "a": {"translation": [0, 0, 0], "rotation": [0, 0, 0], "vertices": [[0, 0], [10, 0], [10, 10], [0, 10]],
+            "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}]},
+      "b": {"translation": [20, 0, 0], "rotation": [0, 0, 0], "vertices": [[0, 0], [10, 0], [10, 10], [0, 10]],
+            "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}]}},
+      "stitches": [[{"panel": "a", "edge": 1}, {"panel": "b", "edge": 3})" + extra + "]]}}";
+  };
+  for (const bool right_wrong : {false, true}) {
+    SCOPED_TRACE(right_wrong ? "right_wrong" : "default");
+    GarmentCodeOptions o;
+    o.edge_length = 0.025f;
+    const auto g = parse(file(right_wrong ? R"(, "right_wrong")" : ""), o);
+    ASSERT_EQ(g.seams.size(), 1u);
+    EXPECT_EQ(g.seams[0].a.segment, "e1");
+    EXPECT_EQ(g.seams[0].b.segment, "e3");
+    EXPECT_EQ(g.seams[0].reverse, !right_wrong);
+    SceneDef s;
+    s.materials.push_back({});
+    s.materials[0].name = "m";
+    s.panels = g.panels;
+    s.seams = g.seams;
+    const ClothModel m = build_cloth_model(s);
+    ASSERT_EQ(m.pieces.size(), 2u);
+    // Each vertex of a's right edge (rest x = 0.1) is welded to one of b's left edge (rest x = 0):
+    // at the same height by default, at the mirrored height with right_wrong.
+    int side = 0, pairs = 0;
+    for (uint32_t i = 0; i < m.pieces[0].vertex_count; ++i) {
+      if (std::abs(m.rest_positions[i].x - 0.1f) > 1e-6f) continue;
+      ++side;
+      for (uint32_t j = m.pieces[1].first_vertex; j < m.pieces[1].first_vertex + m.pieces[1].vertex_count; ++j)
+        if (m.alias[j] == m.alias[i]) {
+          ++pairs;
+          EXPECT_NEAR(m.rest_positions[j].x, 0.0f, 1e-6f);
+          EXPECT_NEAR(m.rest_positions[j].y, right_wrong ? 0.1f - m.rest_positions[i].y : m.rest_positions[i].y, 1e-6f);
+        }
+    }
+    EXPECT_GE(side, 5);  // 10 cm at 2.5 cm: at least 5 vertices a side
+    EXPECT_EQ(pairs, side);
+  }
+}
+
+TEST(GarmentCode, TheFourShippedPatternFilesLoad) {
+  struct Case { const char* file; size_t panels, seams; };
+  for (const Case& c : {Case{"dress_pencil_specification.json", 6, 23}, Case{"shirt_mean_specification.json", 8, 18},
+                        Case{"hoody_mean_specification.json", 6, 12}, Case{"js_mean_all_specification.json", 12, 57}}) {
+    SCOPED_TRACE(c.file);
+    GarmentCodeOptions o;
+    o.material = "m";
+    o.prefix = "g_";
+    const auto g = read_garmentcode(kSource + "/assets/garmentcode/" + c.file, o);
+    EXPECT_EQ(g.panels.size(), c.panels);
+    EXPECT_EQ(g.seams.size(), c.seams);
+    for (const auto& pd : g.panels) {
+      EXPECT_EQ(pd.name.rfind("g_", 0), 0u);
+      const PatternMesh mesh = mesh_pattern(pd.pattern, [&](const std::string& f, const std::string& r) {
+        throw InputError(pd.name, f, r);
+      });
+      EXPECT_GT(mesh.triangles.size(), 0u);
+    }
+  }
+}
+
+TEST(GarmentCode, BadFilesAreRefusedWithTheFileTheFieldAndTheReason) {
+  auto msg = [](const std::string& text) { return message_of([&] { parse(text); }); };
+  EXPECT_EQ(msg(square_file(R"({"type": "spline", "params": [[0.5, 0.1]]})")),
+            "gc.json: /pattern/panels/sq/edges/0/curvature/type: unknown curvature type 'spline' (expected quadratic, cubic or circle)");
+  // A bow tie: vertices 2 and 3 swapped, the outline crosses itself.
+  {
+    std::string t = square_file("");
+    const std::string square = "[[0, 0], [20, 0], [20, 20], [0, 20]]";
+    t.replace(t.find(square), square.size(), "[[0, 0], [20, 0], [0, 20], [20, 20]]");
+    EXPECT_EQ(msg(t), "gc.json: /pattern/panels/sq/edges: the outline crosses or touches itself");
+  }
+  // A quadratic edge bent so far that it crosses the opposite side.
+  EXPECT_EQ(msg(square_file(R"({"type": "quadratic", "params": [[0.5, 2]]})")),
+            "gc.json: /pattern/panels/sq/edges: the outline crosses or touches itself");
+  auto with_stitches = [](const std::string& stitches) {
+    std::string t = square_file("");
+    const std::string empty = R"("stitches": [])";
+    t.replace(t.find(empty), empty.size(), R"("stitches": )" + stitches);
+    return t;
+  };
+  EXPECT_EQ(msg(with_stitches(R"([[{"panel": "sq", "edge": 0}, {"panel": "sq", "edge": 2}],
+                                  [{"panel": "sq", "edge": 1}, {"panel": "sq", "edge": 2}]])")),
+            "gc.json: /pattern/stitches/1/1: edge 2 of panel 'sq' is already in stitch 0");
+  EXPECT_EQ(msg(with_stitches(R"([[{"panel": "sq", "edge": 0}, {"panel": "skirt", "edge": 2}]])")),
+            "gc.json: /pattern/stitches/0/1/panel: no panel 'skirt'");
+  EXPECT_EQ(msg(with_stitches(R"([[{"panel": "sq", "edge": 4}, {"panel": "sq", "edge": 2}]])")),
+            "gc.json: /pattern/stitches/0/0/edge: panel 'sq' has no edge 4 (it has 4)");
+  EXPECT_EQ(msg(with_stitches(R"([[{"panel": "sq", "edge": 0}, {"panel": "sq", "edge": 2}, "wrong"]])")),
+            "gc.json: /pattern/stitches/0/2: expected \"right_wrong\"");
+  // The scene's side: a missing file, an unknown panel in the options.
+  EXPECT_EQ(message_of([] {
+              parse_scene(R"({"materials": [{"name": "m"}], "garments": [{"garmentcode": "nope.json", "material": "m"}]})",
+                          "/tmp/s.json");
+            }),
+            "/tmp/nope.json: GarmentCode file does not exist");
+  const std::string dress = kSource + "/assets/garmentcode/dress_pencil_specification.json";
+  EXPECT_EQ(message_of([&] {
+              parse_scene(R"({"materials": [{"name": "m"}], "garments": [{"garmentcode": ")" + dress +
+                              R"(", "material": "m", "panels": {"sleeve": {"edge_length": 0.05}}}]})",
+                          "s.json");
+            }),
+            "s.json: /garments/0/panels/sleeve: no panel 'sleeve' in '" + dress + "'");
+}
+
+TEST(WalkingDressGc, ThePencilDressStartsOnTheManWithItsSeamsWeldedAndStaysClean) {
+  // The shipped scene's first 0.1 s (370 steps), checked exactly every 37 steps: the six panels
+  // and 23 stitches of the pattern file, welded, placed around his rest pose with nothing inside
+  // or crossed, the seams starting to close. The whole run is in docs/garments.md.
+  const SceneDef s = load_scene_file(kSource + "/scenes/walking_dress_gc.json");
+  ASSERT_EQ(s.panels.size(), 6u);
+  ASSERT_EQ(s.seams.size(), 23u);
+  Simulator sim(s);
+  ASSERT_EQ(sim.model().pieces.size(), 6u);
+  ASSERT_EQ(test::step_checked(sim, 370, 37), "");
+}
