@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 
 packages=(cmake ninja-build g++ pkg-config libembree-dev libtbb-dev nlohmann-json3-dev libcli11-dev
           libtinyobjloader-dev libspdlog-dev libfmt-dev libstb-dev libtinygltf-dev libgtest-dev
-          libbenchmark-dev libcgal-dev ffmpeg
+          libbenchmark-dev libcgal-dev ffmpeg chromium
           python3-dev python3-pybind11 pybind11-dev python3-numpy python3-pytest)
 missing=()
 for p in "${packages[@]}"; do

@@ -12,6 +12,8 @@ Action add_resume_command(CLI::App& app);
 Action add_bench_command(CLI::App& app);
 Action add_render_command(CLI::App& app);
 Action add_check_command(CLI::App& app);
+Action add_fabric_command(CLI::App& app);
+Action add_view_command(CLI::App& app);
 
 // Runs `body`, turning library errors into a message on stderr and an exit code:
 // 2 for bad input, 1 for a simulation or I/O failure.

@@ -46,6 +46,8 @@ int main(int argc, char** argv) {
   raycloth::cli::Action bench = raycloth::cli::add_bench_command(app);
   raycloth::cli::Action render = raycloth::cli::add_render_command(app);
   raycloth::cli::Action check = raycloth::cli::add_check_command(app);
+  raycloth::cli::Action fabric = raycloth::cli::add_fabric_command(app);
+  raycloth::cli::Action view = raycloth::cli::add_view_command(app);
   CLI11_PARSE(app, argc, argv);
   for (auto* sub : app.get_subcommands()) {
     if (sub->get_name() == "run") return run();
@@ -53,6 +55,8 @@ int main(int argc, char** argv) {
     if (sub->get_name() == "bench") return bench();
     if (sub->get_name() == "render") return render();
     if (sub->get_name() == "check") return check();
+    if (sub->get_name() == "fabric-test") return fabric();
+    if (sub->get_name() == "view") return view();
   }
   return 1;
 }

@@ -32,8 +32,21 @@ struct CollisionDef {
   bool cloth_cloth = true;   // cast against the cloth itself too
 };
 
+// A fabric's measurements in KES-F units (docs/materials.md): weight W (mg/cm^2), bending rigidity
+// B (gf cm^2/cm), shear stiffness G (gf/(cm deg)), tensile strain EMT (%) at 500 gf/cm. A material
+// with them gets its density and springs from them, each spring's stiffness computed from the mesh
+// around it (src/fabric/kes.h), except for the fields given explicitly.
+struct FabricDef {
+  std::string preset;  // the named preset they started from ("" for none)
+  double W = 0, B = 0, G = 0, EMT = 0;
+};
+
 struct MaterialDef {
   std::string name;
+  std::optional<FabricDef> fabric;
+  // Which of density, stretch, shear and bend were given explicitly: with a fabric, only those
+  // override what the measurements give.
+  bool density_set = false, stretch_set = false, shear_set = false, bend_set = false;
   float density = 0.2f;      // kg / m^2
   float stretch = 200.0f;    // N/m, stiffness of stretch springs
   float shear = 40.0f;       // N/m

@@ -18,6 +18,7 @@
 
 #include "raycloth/error.h"
 #include "raycloth/scene.h"
+#include "fabric/kes.h"
 #include "scene/garmentcode.h"
 #include "scene/json_text.h"
 #include "scene/mesh.h"
@@ -264,12 +265,31 @@ class Reader {
 
   MaterialDef material(const json& j, const std::string& ptr) const {
     MaterialDef m;
-    object(j, ptr, {"name", "density", "stretch", "shear", "bend", "damping", "spring_damping"});
+    object(j, ptr, {"name", "fabric", "kes", "density", "stretch", "shear", "bend", "damping", "spring_damping"});
     required(j, ptr, "name", [&](const json& v, const std::string& p) { m.name = string(v, p); });
-    optional(j, ptr, "density", [&](const json& v, const std::string& p) { m.density = number_f(v, p); });
-    optional(j, ptr, "stretch", [&](const json& v, const std::string& p) { m.stretch = number_f(v, p); });
-    optional(j, ptr, "shear", [&](const json& v, const std::string& p) { m.shear = number_f(v, p); });
-    optional(j, ptr, "bend", [&](const json& v, const std::string& p) { m.bend = number_f(v, p); });
+    // A fabric: a named preset, measurements ("kes"), or a preset with some measurements replaced.
+    optional(j, ptr, "fabric", [&](const json& v, const std::string& p) {
+      const std::string name = string(v, p);
+      const fabric::Preset* preset = fabric::find_preset(name);
+      if (!preset) fail(p, "unknown fabric '" + name + "' (expected " + fabric::preset_names() + ")");
+      m.fabric = FabricDef{name, preset->W, preset->B, preset->G, preset->EMT};
+    });
+    optional(j, ptr, "kes", [&](const json& v, const std::string& p) {
+      object(v, p, {"W", "B", "G", "EMT"});
+      if (!m.fabric)
+        for (const char* key : {"W", "B", "G", "EMT"})
+          if (!v.contains(key)) fail(p + "/" + key, "missing required field (no 'fabric' preset gives it)");
+      FabricDef f = m.fabric.value_or(FabricDef{});
+      optional(v, p, "W", [&](const json& w, const std::string& q) { f.W = number(w, q); });
+      optional(v, p, "B", [&](const json& w, const std::string& q) { f.B = number(w, q); });
+      optional(v, p, "G", [&](const json& w, const std::string& q) { f.G = number(w, q); });
+      optional(v, p, "EMT", [&](const json& w, const std::string& q) { f.EMT = number(w, q); });
+      m.fabric = f;
+    });
+    optional(j, ptr, "density", [&](const json& v, const std::string& p) { m.density = number_f(v, p), m.density_set = true; });
+    optional(j, ptr, "stretch", [&](const json& v, const std::string& p) { m.stretch = number_f(v, p), m.stretch_set = true; });
+    optional(j, ptr, "shear", [&](const json& v, const std::string& p) { m.shear = number_f(v, p), m.shear_set = true; });
+    optional(j, ptr, "bend", [&](const json& v, const std::string& p) { m.bend = number_f(v, p), m.bend_set = true; });
     optional(j, ptr, "damping", [&](const json& v, const std::string& p) { m.damping = number_f(v, p); });
     optional(j, ptr, "spring_damping",
              [&](const json& v, const std::string& p) { m.spring_damping = number_f(v, p); });
@@ -708,6 +728,13 @@ void validate_scene(const SceneDef& s) {
     non_negative(m.bend, p + "/bend");
     non_negative(m.damping, p + "/damping");
     non_negative(m.spring_damping, p + "/spring_damping");
+    if (m.fabric) {
+      // Measurements that no fabric can have: zero, negative, not a number.
+      const std::pair<const char*, double> kes[] = {{"W", m.fabric->W}, {"B", m.fabric->B}, {"G", m.fabric->G}, {"EMT", m.fabric->EMT}};
+      for (const auto& [key, value] : kes)
+        if (!(value > 0) || !std::isfinite(value))
+          fail(p + "/kes/" + key, "must be a positive measurement (got " + num(value) + ")");
+    }
   }
 
   // Input that would not fit in memory or never end is refused with its reason (and a limit) rather
