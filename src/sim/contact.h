@@ -94,6 +94,16 @@ RC_HD bool contact_far(const StepView& s, uint32_t i) {
          kNearFactor * contact_gap(s.coll.thickness, s.obstacle_reach);
 }
 
+// True when vertex i's bound shows a cloth feature sharing no vertex with it (a vertex, a triangle
+// or an edge of another's against one of its own edges) that may now be within `reach` of it:
+// nearer than that at x_ref, less what it and every other vertex have drifted since. Every pair
+// within reach of one of i's edges is then searched from it (kFlagNearCloth).
+RC_HD bool contact_near_by_bound(const StepView& s, uint32_t i, float reach) {
+  return float_from_bits(s.bound[i]) - length(s.x_next[i] - s.x_ref[i]) -
+             float_from_bits(s.counters->drift_max) <=
+         reach;
+}
+
 // Keeps the `cap` nearest candidates (squared distance d2, key for ties) in ascending order.
 template <class T>
 RC_HD void keep_nearest(uint32_t cap, uint32_t& found, double* d2s, uint32_t* keys, T* items, double d2, uint32_t key,
@@ -158,6 +168,10 @@ RC_HD uint32_t stage_contact_find_vertex(const StepView& s, uint32_t i) {
     }
     keep_nearest(kVertexPairs, found, d2s, keys, items, q.dist2, t, p);
   });
+  // Two edges can come within the gap of each other while every vertex of both is farther than
+  // kNearFactor gaps from any triangle not its own: long edges crossing near their middles, as in
+  // a tight fold. The bound's nearest feature is measured edge to edge too, so it catches those.
+  if (!near && contact_near_by_bound(s, i, float(reach))) near = true;
   if (near) s.flags[i] |= kFlagNearCloth;
   for (uint32_t k = 0; k < found; ++k) {
     out[k] = items[k];
