@@ -413,6 +413,32 @@ RC_HD void stage_implicit_plane(const StepView& s, uint32_t i) {
   s.plane_velocity[i] = w;
 }
 
+// Accepts an obstacle face that a ray along `dir` enters from its front side (not `skip`, the face
+// the ray leaves from).
+struct EnteredFromFront {
+  const Vec3* vertices;
+  const uint32_t* indices;
+  Vec3 dir;
+  uint32_t skip;
+  RC_HD bool operator()(uint32_t prim) const {
+    return prim != skip && dot(triangle_normal(vertices, indices, prim), dir) < 0.0f;
+  }
+};
+
+// The body's own gap in front of a surface point: the distance along the outward direction `out`
+// to the first obstacle face it enters from the front (another part of the body, or another
+// body), or `reach` when there is none within it. The same measure as the exact check's pinch.
+RC_HD float pinch_gap_along(const StepView& s, Vec3 from, Vec3 out, float reach, uint32_t skip) {
+  Ray ray;
+  ray.org = from;
+  ray.dir = out;
+  ray.tmax = reach;
+  const EnteredFromFront front{s.geom.obstacle_vertices, s.geom.obstacle_indices, out, skip};
+  const RawHit hit = trace_nearest(s.obstacle_bvh, s.geom.obstacle_vertices, s.geom.obstacle_indices, ray, front,
+                                   kHitObstacle);
+  return hit.kind == kHitNone ? reach : hit.t;
+}
+
 // Obstacles at t + dt: a vertex inside, or nearer than the thickness, goes to the thickness outside
 // the nearest surface point and loses its velocity into the surface relative to the surface's own
 // velocity there (friction on the rest).
@@ -473,6 +499,14 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
           if (!moved) break;
         }
         if (!pushed) return;
+        // A pinch: where the body brings another of its surfaces within the offset in front of the
+        // point it pushes the vertex out from (an arm against the side), the offset would put the
+        // vertex inside that one. It goes halfway across the body's gap instead, outside both.
+        {
+          const Vec3 from = xn - out * offset;
+          const float gap = pinch_gap_along(s, from, out, offset, q.prim);
+          if (gap < offset) xn = from + out * (0.5f * gap);
+        }
         Vec3 u = make_vec3(0, 0, 0);
         if (s.geom.obstacle_velocities) {
           const Vec3* ovel = s.geom.obstacle_velocities;
