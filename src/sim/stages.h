@@ -171,6 +171,9 @@ inline constexpr uint32_t kFlagSqueezed = 128u; // held between a body and cloth
 // and cloth that another body (or another side of the body) pushes from the far side cannot be at
 // the thickness from both; it yields into its own thickness toward the body, never into the body.
 inline constexpr float kSqueezeOffset = 0.25f;
+// The smallest body gap, as a share of the offset, that a pushed vertex is put halfway across
+// (stage_obstacles).
+inline constexpr float kPinchMinGap = 0.1f;
 
 
 
@@ -501,11 +504,14 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
         if (!pushed) return;
         // A pinch: where the body brings another of its surfaces within the offset in front of the
         // point it pushes the vertex out from (an arm against the side), the offset would put the
-        // vertex inside that one. It goes halfway across the body's gap instead, outside both.
+        // vertex inside that one. It goes halfway across the body's gap instead, outside both. A
+        // face met within kPinchMinGap of the offset is a neighbour grazed at a crease or a surface
+        // touching this one: halfway is then on the surface, where an open body's inside is not
+        // defined, so the vertex takes the whole offset as before.
         {
           const Vec3 from = xn - out * offset;
           const float gap = pinch_gap_along(s, from, out, offset, q.prim);
-          if (gap < offset) xn = from + out * (0.5f * gap);
+          if (gap < offset && gap >= kPinchMinGap * offset) xn = from + out * (0.5f * gap);
         }
         Vec3 u = make_vec3(0, 0, 0);
         if (s.geom.obstacle_velocities) {
