@@ -1,5 +1,6 @@
-// GarmentCode sewing patterns: curve kinds against their analytic shapes, stitch orientation,
-// the four shipped pattern files, and every bad-file message word for word.
+// GarmentCode sewing patterns: curve kinds against their analytic shapes, the older files' bare
+// [u, v] curvature, stitch orientation, the four shipped pattern files, and every bad-file message
+// word for word.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -98,6 +99,27 @@ TEST(GarmentCode, CubicEdgeIsTheBezierThroughItsTwoRelativeControlPoints) {
   // The S-curve: above the chord at t = 1/4 (y = 27/64 * 0.1 - 9/64 * 0.1), below at 3/4.
   EXPECT_NEAR(pts[64][1], 0.1 * 18.0 / 64.0, 1e-7);
   EXPECT_NEAR(pts[192][1], -0.1 * 18.0 / 64.0, 1e-7);
+}
+
+TEST(GarmentCode, BareListCurvatureIsTheSameQuadraticAsTheTypedOne) {
+  // The older files write a quadratic edge's control point as a bare [u, v]: the same relative point,
+  // the same outline, point for point.
+  const auto bare = parse(square_file("[0.5, -0.25]"));
+  const auto typed = parse(square_file(R"({"type": "quadratic", "params": [[0.5, -0.25]]})"));
+  const PatternDef& p = bare.panels[0].pattern;
+  ASSERT_TRUE(p.outline[0].control.has_value());
+  EXPECT_FLOAT_EQ((*p.outline[0].control)[0], 0.10f);
+  EXPECT_FLOAT_EQ((*p.outline[0].control)[1], -0.05f);
+  EXPECT_FALSE(p.outline[0].control2.has_value());
+  EXPECT_FALSE(p.outline[0].arc.has_value());
+  const auto a = fine_outline(p), b = fine_outline(typed.panels[0].pattern);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 256u);
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i][0], b[i][0]) << i;
+    EXPECT_EQ(a[i][1], b[i][1]) << i;
+  }
+  EXPECT_NEAR(first_segment(p)[128][1], -0.025, 1e-7);  // the curve's middle, below the chord
 }
 
 TEST(GarmentCode, CircleArcHasItsRadiusSweepAndSide) {
@@ -241,6 +263,14 @@ TEST(GarmentCode, BadFilesAreRefusedWithTheFileTheFieldAndTheReason) {
   auto msg = [](const std::string& text) { return message_of([&] { parse(text); }); };
   EXPECT_EQ(msg(square_file(R"({"type": "spline", "params": [[0.5, 0.1]]})")),
             "gc.json: /pattern/panels/sq/edges/0/curvature/type: unknown curvature type 'spline' (expected quadratic, cubic or circle)");
+  EXPECT_EQ(msg(square_file("[0.5, -0.25, 1]")),
+            "gc.json: /pattern/panels/sq/edges/0/curvature: a curvature list is one relative control point [u, v] (got 3 values)");
+  EXPECT_EQ(msg(square_file("[[0.5, -0.25]]")),
+            "gc.json: /pattern/panels/sq/edges/0/curvature: a curvature list is one relative control point [u, v] (got 1 value)");
+  EXPECT_EQ(msg(square_file(R"(["0.5", "-0.25"])")),
+            "gc.json: /pattern/panels/sq/edges/0/curvature/0: expected a number, got string");
+  EXPECT_EQ(msg(square_file(R"("quadratic")")),
+            "gc.json: /pattern/panels/sq/edges/0/curvature: expected an object with type and params or a [u, v] list, got string");
   // A bow tie: vertices 2 and 3 swapped, the outline crosses itself.
   {
     std::string t = square_file("");

@@ -229,9 +229,17 @@ class GcReader {
         const double dx = b[0] - a[0], dy = b[1] - a[1];
         return {float((a[0] + uv[0] * dx - uv[1] * dy) * to_m), float((a[1] + uv[0] * dy + uv[1] * dx) * to_m)};
       };
-      if (auto c = e.find("curvature"); c != e.end()) {
+      if (auto c = e.find("curvature"); c != e.end() && c->is_array()) {
+        // The older files' form: a bare [u, v], one relative quadratic control point.
         const std::string cp = q + "/curvature";
-        if (!c->is_object()) fail(cp, std::string("expected an object with type and params, got ") + c->type_name());
+        if (c->size() != 2)
+          fail(cp, "a curvature list is one relative control point [u, v] (got " + std::to_string(c->size()) +
+                       (c->size() == 1 ? " value)" : " values)"));
+        seg.control = control({number((*c)[0], cp + "/0"), number((*c)[1], cp + "/1")});
+      } else if (c != e.end()) {
+        const std::string cp = q + "/curvature";
+        if (!c->is_object())
+          fail(cp, std::string("expected an object with type and params or a [u, v] list, got ") + c->type_name());
         const auto t = c->find("type");
         if (t == c->end()) fail(cp + "/type", "missing required field");
         const std::string type = string(*t, cp + "/type");

@@ -7,7 +7,10 @@
 // GarmentCode's body frame (y up, front +z); `pattern.stitches`, pairs of {panel, edge} with an
 // optional third entry "right_wrong". Curvature: {"type": "quadratic", "params": [[u, v]]},
 // {"type": "cubic", "params": [[u1, v1], [u2, v2]]}, control points relative to the edge (start +
-// u·(end − start) + v·(−dy, dx)), or {"type": "circle", "params": [radius, large_arc, right]}.
+// u·(end − start) + v·(−dy, dx)), or {"type": "circle", "params": [radius, large_arc, right]}. The
+// older files of the same family (Garment-Pattern-Generator templates, units_in_meter 100 or 300)
+// write a quadratic edge's curvature as a bare [u, v] list, read as {"type": "quadratic", "params":
+// [[u, v]]}. Other fields (parameters, parameter_order, constraints, panel_order, labels) are ignored.
 #pragma once
 #include <map>
 #include <optional>
