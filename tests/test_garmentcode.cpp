@@ -1,5 +1,5 @@
 // GarmentCode sewing patterns: curve kinds against their analytic shapes, the older files' bare
-// [u, v] curvature, stitch orientation, the four shipped pattern files, and every bad-file message
+// [u, v] curvature and units, stitch orientation, the four shipped pattern files, and every bad-file message
 // word for word.
 #include <gtest/gtest.h>
 
@@ -120,6 +120,36 @@ TEST(GarmentCode, BareListCurvatureIsTheSameQuadraticAsTheTypedOne) {
     EXPECT_EQ(a[i][1], b[i][1]) << i;
   }
   EXPECT_NEAR(first_segment(p)[128][1], -0.025, 1e-7);  // the curve's middle, below the chord
+}
+
+TEST(GarmentCode, UnitsInMeterScaleEveryCoordinate) {
+  // units_in_meter 300 (some older files): the square's corner (20, 0) is 20/300 m along the panel,
+  // and the translation (30, 60, -90) is (0.1, 0.2, -0.3) m; a control point scales too.
+  std::string text = square_file(R"({"type": "quadratic", "params": [[0.5, -0.25]]})");
+  auto swap = [&](const std::string& from, const std::string& to) { text.replace(text.find(from), from.size(), to); };
+  swap(R"("units_in_meter": 100)", R"("units_in_meter": 300)");
+  swap(R"("translation": [0, 0, 0])", R"("translation": [30, 60, -90])");
+  const auto g = parse(text);
+  const PatternDef& p = g.panels[0].pattern;
+  EXPECT_FLOAT_EQ(p.outline[1].from[0], float(20.0 / 300));
+  EXPECT_FLOAT_EQ(p.outline[2].from[1], float(20.0 / 300));
+  EXPECT_FLOAT_EQ((*p.outline[0].control)[0], float(10.0 / 300));
+  EXPECT_FLOAT_EQ((*p.outline[0].control)[1], float(-5.0 / 300));
+  SceneDef s;
+  s.materials.push_back({});
+  s.materials[0].name = "m";
+  s.panels = g.panels;
+  s.panels[0].pattern.edge_length = 0.02f;
+  const ClothModel m = build_cloth_model(s);
+  bool found = false;
+  for (size_t i = 0; i < m.rest_positions.size(); ++i)
+    if (std::abs(m.rest_positions[i].x - float(20.0 / 300)) < 1e-6f && std::abs(m.rest_positions[i].y) < 1e-6f) {
+      found = true;
+      EXPECT_NEAR(m.initial_positions[i].x, 20.0 / 300 + 0.1, 1e-6);
+      EXPECT_NEAR(m.initial_positions[i].y, 0.2, 1e-6);
+      EXPECT_NEAR(m.initial_positions[i].z, -0.3, 1e-6);
+    }
+  EXPECT_TRUE(found);
 }
 
 TEST(GarmentCode, CircleArcHasItsRadiusSweepAndSide) {
