@@ -200,6 +200,7 @@ TEST(Seam, PathsOfDifferentLengthsAreMatchedByArcLengthAndCloseOverTime) {
   seam.reverse = true;  // a's right runs up, b's left runs down
   s.seams.push_back(seam);
   s.sewing.close_time = 0.3;
+  s.sewing.weld_at_start = true;
   Simulator sim(s);
   const ClothModel& m = sim.model();
   // The facing sides have 11 and 8 vertices; sewn, every vertex of either side has a partner (one

@@ -252,6 +252,7 @@ TEST(GarmentCode, StitchSewsTheFirstEdgesEndToTheSecondsStartUnlessRightWrong) {
     s.materials[0].name = "m";
     s.panels = g.panels;
     s.seams = g.seams;
+    s.sewing.weld_at_start = true;
     const ClothModel m = build_cloth_model(s);
     ASSERT_EQ(m.pieces.size(), 2u);
     // Each vertex of a's right edge (rest x = 0.1) is welded to one of b's left edge (rest x = 0):

@@ -108,6 +108,11 @@ struct PanelDef {
   std::string mesh_file;                 // mesh: OBJ path (resolved against the scene file's folder)
   PatternDef pattern;                    // pattern
   TransformDef transform;
+  // Mesh and pattern panels: no vertex lighter than this share of the panel's median vertex mass
+  // (the others give up the difference in proportion, the panel's mass unchanged). Slivers where a
+  // short outline piece or a seam's inserted vertex meets the mesh otherwise leave vertices a
+  // hundredth of the median, which the explicit step's limit follows. Garments placed on a body: 0.25.
+  float min_mass_share = 0;
 };
 
 // A path of panel vertices: a rectangle's edge (left (u = 0), right (u = max), bottom (v = 0),
@@ -121,19 +126,33 @@ struct EdgeRef {
 };
 
 // Seams join two paths. Paths of different lengths (patterns and meshes) are matched by arc
-// length: each side gets the other side's vertices inserted where it has none near, then the
-// pairs are welded into one vertex.
+// length: each side gets the other side's vertices inserted where it has none near. Then each pair
+// is sewn from apart (a stitch: a spring of rest length 0 between the two vertices, its rest length
+// easing from the pair's start distance to 0 over sewing.close_time while collision acts; the
+// panels' own triangles never span the gap) or, with weld_at_start, welded into one vertex at its
+// midpoint in the first step.
 struct SeamDef {
   EdgeRef a, b;
   bool reverse = false;     // pair a's first vertex with b's last
-  float stiffness = 200.0f; // N/m, seam springs have rest length 0
+  float stiffness = 200.0f; // N/m, the stitches' springs (rest length 0)
+  std::optional<bool> weld_at_start;  // unset: sewing.weld_at_start
 };
 
-// While seams close: every spring's rest length goes from its length in the placed, welded start
-// state to its length in the panel's own shape over close_time seconds (smoothstep), so panels
-// placed apart are drawn together gently. 0: the rest lengths hold from the start.
+// While seams close: every spring's rest length goes from its length in the placed start state to
+// its length in the panel's own shape (a stitch's to 0) over close_time seconds (smoothstep), so
+// panels placed apart are drawn together gently. 0: the rest lengths hold from the start.
+// weld_at_start: the seams that do not say otherwise weld at the start instead of being sewn.
+// A stitch whose two vertices are further apart than close_tolerance (metres; default twice the
+// collision thickness, the contact keeping the two sides one thickness apart) at the end of the
+// close time is an open seam: run.json lists it and the run warns.
+// ease_gravity: gravity grows from 0 with the same smoothstep over the close time, so that panels
+// placed around a body do not fall before their seams hold them (default: on when a seam is sewn
+// from apart, off otherwise).
 struct SewingDef {
   double close_time = 0.0;
+  bool weld_at_start = false;
+  std::optional<float> close_tolerance;
+  std::optional<bool> ease_gravity;
 };
 
 // Pins hold vertices in place: a corner ("bottom_left", ...), a whole edge or outline segment, or an
@@ -184,10 +203,16 @@ struct ObstacleDef {
   bool loop = true;
   std::optional<double> offset;
   double blend_in = 0.0;
+  // skinned: simulated seconds the body stands in its rest pose before the blend and the animation
+  // begin (a garment settles on a standing body, then it walks).
+  double hold = 0.0;
   // mesh and skinned: whether the step closes the mesh's openings (sim/holes: boundary loops small
   // against their piece) so that cloth cannot slip into an open body part; outputs and the exact
   // check see the mesh as it is.
   bool close_holes = true;
+  // Which way the body faces in the scene (a horizontal direction; glTF's models face +z): garments
+  // placed on it (garments[].body) are turned from their pattern's front (+z) to this.
+  Float3 front{0, 0, 1};
   TransformDef transform;
   std::optional<MotionDef> motion;
 };
@@ -212,6 +237,21 @@ struct OutputDef {
 // Names of the mesh formats a run can write, in the order `formats` accepts them.
 inline constexpr std::array<std::string_view, 4> kOutputFormats{"obj", "ply", "pc2", "glb"};
 
+// A garment placed on a body (garments[].body, sim/garment_fit.h): its panels arrive in the pattern
+// file's own frame (GarmentCode's body: 1.72 m tall, feet at y = 0, neck line at 1.457 m, front +z)
+// and are fitted at the start to obstacle `body` in its rest pose: turned to face its front, lifted
+// so that the garment's anchor (the neck line for a garment that reaches above GarmentCode's chest,
+// the waist otherwise) meets the body's, centred on its torso, then `position` added and each panel
+// that starts inside or through the body moved out along its normal until it clears it.
+struct GarmentFitDef {
+  std::string body;               // obstacle name
+  std::string field;              // "/garments/<i>": where errors point
+  uint32_t first_panel = 0, num_panels = 0;  // into SceneDef::panels
+  Float3 position{0, 0, 0};       // metres, added after the fit
+  float rotation = 0;             // degrees about the vertical, after the fit
+  bool clear = true;              // move panels out of the body
+};
+
 struct SceneDef {
   std::string name = "scene";
   std::string source;  // file it came from ("" for built-in)
@@ -225,6 +265,7 @@ struct SceneDef {
   SewingDef sewing;
   std::vector<AttachmentDef> attachments;
   std::vector<ObstacleDef> obstacles;
+  std::vector<GarmentFitDef> garment_fits;
   OutputDef output;
 };
 

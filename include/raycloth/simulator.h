@@ -96,6 +96,13 @@ class Simulator {
   // Substeps per step: 1, or for the implicit integrator where a body moves, as many as keep its
   // fastest point within kImplicitMaxBodyMove per substep.
   int substeps() const { return substeps_; }
+  // Garments placed on a body (SceneDef::garment_fits): how far each of their panels was moved along
+  // its normal to clear the body at the start (sim/garment_fit.h), in the scene's panel order.
+  struct PanelMove {
+    std::string panel;
+    float moved = 0;
+  };
+  const std::vector<PanelMove>& panel_moves() const { return panel_moves_; }
 
   // Edits between steps (src/sim/simulator_edit.cpp), for callers that drive the simulation
   // themselves (the Python module). The CPU backend has them; elsewhere they throw SimulationError.
@@ -115,6 +122,7 @@ class Simulator {
   SceneDef scene_;
   SceneDef step_scene_;  // what the backend steps: scene_ with dt / substeps_
   int substeps_ = 1;
+  std::vector<PanelMove> panel_moves_;
   std::unique_ptr<ClothModel> model_;
   std::unique_ptr<ObstacleSet> obstacles_;
   std::unique_ptr<Backend> backend_;

@@ -20,7 +20,7 @@
 
 namespace raycloth {
 
-inline constexpr uint32_t kCheckpointFormat = 1;
+inline constexpr uint32_t kCheckpointFormat = 2;  // 2: FrameRecord::seam_gap
 inline constexpr const char* kCheckpointName = "checkpoint.bin";
 
 // raycloth's version (CMake's project version).

@@ -23,6 +23,7 @@
 #include "io/run_summary.h"
 #include "raycloth/error.h"
 #include "sim/model.h"
+#include "sim/seams.h"
 
 namespace raycloth {
 
@@ -107,6 +108,45 @@ class Progress {
   int last_decile_ = 0;
 };
 
+// Seams sewn from apart: the stitches, the tolerance, the widest stitch when the seams should have
+// closed (the first frame at or after sewing.close_time) and at the end, and the seams still open.
+nlohmann::json seams_json(const RunReport& r, Simulator& sim) {
+  const SceneDef& s = sim.scene();
+  const float tol = seam_close_tolerance(s);
+  nlohmann::json j = {{"stitches", sim.model().stitch_seam.size()}, {"close_time", s.sewing.close_time}, {"close_tolerance", tol}};
+  const FrameRecord* at_close = nullptr;
+  for (const FrameRecord& f : r.frames)
+    if (!at_close && f.time >= s.sewing.close_time - 1e-9) at_close = &f;
+  j["largest_gap_at_close_time"] = at_close ? nlohmann::json(at_close->seam_gap) : nlohmann::json(nullptr);
+  j["largest_gap_at_end"] = r.frames.empty() ? 0.0 : r.frames.back().seam_gap;
+  nlohmann::json open = nlohmann::json::array();
+  for (const SeamGap& g : seam_gaps(sim.model(), sim.positions()))
+    if (g.largest > tol) {
+      const SeamDef& sd = s.seams[g.seam];
+      open.push_back({{"seam", g.seam}, {"a", sd.a.panel}, {"b", sd.b.panel}, {"largest_gap", g.largest}});
+    }
+  j["open_at_end"] = open;
+  return j;
+}
+
+// Says so when a seam sewn from apart had not closed by the end of the close time (or is open at the end).
+void warn_open_seams(Simulator& sim, const RunReport& r) {
+  const ClothModel& m = sim.model();
+  if (m.stitches.empty() || r.frames.empty()) return;
+  const SceneDef& s = sim.scene();
+  const float tol = seam_close_tolerance(s);
+  for (const FrameRecord& f : r.frames)
+    if (f.time >= s.sewing.close_time - 1e-9) {
+      if (f.seam_gap > tol)
+        spdlog::warn("seams still open at the end of the close time ({:g} s): the widest stitch is {:.3g} m apart "
+                     "(sewing.close_tolerance {:g} m); run.json's seams lists those open at the end",
+                     s.sewing.close_time, f.seam_gap, tol);
+      break;
+    }
+  if (r.frames.back().seam_gap > tol)
+    spdlog::warn("seams open at the end of the run: the widest stitch is {:.3g} m apart", r.frames.back().seam_gap);
+}
+
 nlohmann::json report_json(const RunReport& r, Simulator& sim) {
   const ClothModel& m = sim.model();
   nlohmann::json j;
@@ -143,9 +183,11 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
       jf["pinched"] = f.pinched;
       jf["pinch_gap"] = std::isfinite(f.pinch_gap) ? nlohmann::json(f.pinch_gap) : nlohmann::json(nullptr);
     }
+    if (!m.stitches.empty()) jf["seam_gap"] = f.seam_gap;
     frames.push_back(jf);
   }
   j["frames"] = frames;
+  if (!m.stitches.empty()) j["seams"] = seams_json(r, sim);
   j["contact"] = {{"pushed_by_obstacles", sim.pushed_total()},
                   {"clamped_by_bound", sim.clamped_total()},
                   {"obstacle_conflicts", sim.conflicts_total()},
@@ -358,6 +400,7 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
     clamped_seen = sim.clamped_total();
     pushed_seen = sim.pushed_total();
     rec.kinetic_energy = kinetic_energy(sim.model(), sim.velocities());
+    rec.seam_gap = largest_stitch_gap(sim.model(), sim.positions());
     if (opt.check) {
       const CheckReport c = check_state(cloth_check_mesh(sim.model(), sim.positions()),
                                         obstacle_check_mesh(sim.obstacles(), sim.obstacle_vertices()), thickness);
@@ -513,6 +556,7 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
   write_report();
   remove_checkpoint();
   warn_unconverged();
+  warn_open_seams(sim, report);
   return report;
 }
 

@@ -32,6 +32,7 @@ struct FrameRecord {
   long vertices_inside = -1;    // cloth vertices strictly inside an obstacle (failures: no pinch explains them)
   long pinched = -1;            // cloth vertices strictly inside where the body's own gap is < 2 x thickness
   double pinch_gap = HUGE_VAL;  // metres, the smallest body gap of a pinched vertex (infinite: none)
+  double seam_gap = 0;          // metres, the widest stitch of the seams sewn from apart (sim/seams.h)
 };
 
 // The exact check over every written frame. A bad frame has a failure (a crossing or a vertex

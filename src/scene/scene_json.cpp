@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <fstream>
 #include <initializer_list>
 #include <limits>
@@ -99,8 +100,12 @@ class Reader {
     list(j, "", "garments", false, [&](const json& v, const std::string& p, size_t) { garment(v, p, s); });
     list(j, "", "pins", false, [&](const json& v, const std::string& p, size_t) { s.pins.push_back(pin(v, p)); });
     optional(j, "", "sewing", [&](const json& v, const std::string& p) {
-      object(v, p, {"close_time"});
+      object(v, p, {"close_time", "weld_at_start", "close_tolerance", "ease_gravity"});
+      optional(v, p, "ease_gravity", [&](const json& w, const std::string& q) { s.sewing.ease_gravity = boolean(w, q); });
       optional(v, p, "close_time", [&](const json& w, const std::string& q) { s.sewing.close_time = number(w, q); });
+      optional(v, p, "weld_at_start", [&](const json& w, const std::string& q) { s.sewing.weld_at_start = boolean(w, q); });
+      optional(v, p, "close_tolerance",
+               [&](const json& w, const std::string& q) { s.sewing.close_tolerance = number_f(w, q); });
     });
     list(j, "", "attachments", false,
          [&](const json& v, const std::string& p, size_t) { s.attachments.push_back(attachment(v, p)); });
@@ -368,7 +373,14 @@ class Reader {
   // seams (src/scene/garmentcode.h).
   void garment(const json& j, const std::string& ptr, SceneDef& s) const {
     object(j, ptr, {"garmentcode", "material", "edge_length", "position", "rotation", "scale", "prefix",
-                    "seam_stiffness", "panels"});
+                    "seam_stiffness", "panels", "body", "clear", "weld_at_start"});
+    // On a body, the garment stays in the pattern's frame here; position and the rotation about the
+    // vertical are applied after the fit (sim/garment_fit.h).
+    GarmentFitDef fit;
+    optional(j, ptr, "body", [&](const json& v, const std::string& p) { fit.body = string(v, p); });
+    optional(j, ptr, "clear", [&](const json& v, const std::string& p) { fit.clear = boolean(v, p); });
+    std::optional<bool> weld;
+    optional(j, ptr, "weld_at_start", [&](const json& v, const std::string& p) { weld = boolean(v, p); });
     GarmentCodeOptions o;
     std::string file;
     required(j, ptr, "garmentcode", [&](const json& v, const std::string& p) {
@@ -380,8 +392,18 @@ class Reader {
       o.edge_length = number_f(v, p);
       if (!(o.edge_length > 0)) fail(p, "must be a positive number of metres");
     });
-    optional(j, ptr, "position", [&](const json& v, const std::string& p) { o.position = float3(v, p); });
-    optional(j, ptr, "rotation", [&](const json& v, const std::string& p) { o.rotation = float3(v, p); });
+    optional(j, ptr, "position", [&](const json& v, const std::string& p) {
+      (fit.body.empty() ? o.position : fit.position) = float3(v, p);
+    });
+    optional(j, ptr, "rotation", [&](const json& v, const std::string& p) {
+      o.rotation = float3(v, p);
+      if (!fit.body.empty()) {
+        if (o.rotation[0] != 0 || o.rotation[2] != 0)
+          fail(p, "a garment on a body turns only about the vertical: give [0, degrees, 0]");
+        fit.rotation = o.rotation[1];
+        o.rotation = {0, 0, 0};
+      }
+    });
     optional(j, ptr, "scale", [&](const json& v, const std::string& p) {
       o.scale = number_f(v, p);
       if (!(o.scale > 0)) fail(p, "must be a positive number");
@@ -406,8 +428,20 @@ class Reader {
       for (const auto& n : g.file_panel_names) known = known || n == name;
       if (!known) fail(ptr + "/panels/" + pointer_token(name), "no panel '" + name + "' in '" + file + "'");
     }
-    s.panels.insert(s.panels.end(), g.panels.begin(), g.panels.end());
-    s.seams.insert(s.seams.end(), g.seams.begin(), g.seams.end());
+    if (!fit.body.empty()) {
+      fit.field = ptr;
+      fit.first_panel = uint32_t(s.panels.size());
+      fit.num_panels = uint32_t(g.panels.size());
+      s.garment_fits.push_back(fit);
+    }
+    for (PanelDef pd : g.panels) {
+      if (!fit.body.empty()) pd.min_mass_share = 0.25f;
+      s.panels.push_back(pd);
+    }
+    for (SeamDef sd : g.seams) {
+      if (weld) sd.weld_at_start = weld;
+      s.seams.push_back(sd);
+    }
   }
 
   // Which vertices of a panel: exactly one of a rectangle's edge, a pattern's segment or a mesh
@@ -439,11 +473,12 @@ class Reader {
 
   SeamDef seam(const json& j, const std::string& ptr) const {
     SeamDef sd;
-    object(j, ptr, {"a", "b", "reverse", "stiffness"});
+    object(j, ptr, {"a", "b", "reverse", "stiffness", "weld_at_start"});
     required(j, ptr, "a", [&](const json& v, const std::string& p) { sd.a = edge_ref(v, p); });
     required(j, ptr, "b", [&](const json& v, const std::string& p) { sd.b = edge_ref(v, p); });
     optional(j, ptr, "reverse", [&](const json& v, const std::string& p) { sd.reverse = boolean(v, p); });
     optional(j, ptr, "stiffness", [&](const json& v, const std::string& p) { sd.stiffness = number_f(v, p); });
+    optional(j, ptr, "weld_at_start", [&](const json& v, const std::string& p) { sd.weld_at_start = boolean(v, p); });
     return sd;
   }
 
@@ -515,7 +550,7 @@ class Reader {
     ObstacleDef od;
     od.name = "obstacle" + std::to_string(index);
     object(j, ptr, {"name", "type", "radius", "slices", "stacks", "size", "file", "position", "rotation", "scale",
-                    "motion", "animation", "speed", "loop", "offset", "blend_in", "close_holes"});
+                    "motion", "animation", "speed", "loop", "offset", "blend_in", "hold", "close_holes", "front"});
     std::string type_name;
     required(j, ptr, "type", [&](const json& v, const std::string& p) {
       od.type = obstacle_type(v, p);
@@ -533,7 +568,7 @@ class Reader {
     only_for("stacks", {ObstacleType::UvSphere});
     only_for("size", {ObstacleType::Box, ObstacleType::Plane});
     only_for("file", {ObstacleType::Mesh, ObstacleType::Skinned});
-    for (const char* key : {"animation", "speed", "loop", "offset", "blend_in"}) only_for(key, {ObstacleType::Skinned});
+    for (const char* key : {"animation", "speed", "loop", "offset", "blend_in", "hold"}) only_for(key, {ObstacleType::Skinned});
     only_for("close_holes", {ObstacleType::Mesh, ObstacleType::Skinned});
     if (od.type == ObstacleType::Skinned && j.contains("motion"))
       fail(ptr + "/motion", "field 'motion' does not apply to obstacle type 'skinned' (its animation moves it)");
@@ -547,7 +582,12 @@ class Reader {
     optional(j, ptr, "loop", [&](const json& v, const std::string& p) { od.loop = boolean(v, p); });
     optional(j, ptr, "offset", [&](const json& v, const std::string& p) { od.offset = number(v, p); });
     optional(j, ptr, "blend_in", [&](const json& v, const std::string& p) { od.blend_in = number(v, p); });
+    optional(j, ptr, "hold", [&](const json& v, const std::string& p) { od.hold = number(v, p); });
     optional(j, ptr, "close_holes", [&](const json& v, const std::string& p) { od.close_holes = boolean(v, p); });
+    optional(j, ptr, "front", [&](const json& v, const std::string& p) {
+      od.front = float3(v, p);
+      if (!(std::hypot(od.front[0], od.front[2]) > 1e-6f)) fail(p, "must point somewhere horizontal (x or z not 0)");
+    });
     if (od.type == ObstacleType::Mesh || od.type == ObstacleType::Skinned)
       required(j, ptr, "file", [&](const json& v, const std::string& p) {
         const std::filesystem::path f = string(v, p);
@@ -862,7 +902,35 @@ void validate_scene(const SceneDef& s) {
     }
   }
 
+  for (const GarmentFitDef& g : s.garment_fits) {
+    bool known = false;
+    std::string names;
+    for (const ObstacleDef& o : s.obstacles) {
+      known = known || o.name == g.body;
+      names += (names.empty() ? "'" : ", '") + o.name + "'";
+    }
+    if (!known)
+      fail(g.field + "/body", "no obstacle named '" + g.body + "' (the scene has " + (names.empty() ? "none" : names) + ")");
+  }
+  // Which garment (garments[] entry) each panel came from, -1 for the scene's own panels.
+  if (!s.garment_fits.empty()) {
+    std::map<std::string, int> garment_of;
+    for (size_t g = 0; g < s.garment_fits.size(); ++g)
+      for (uint32_t k = 0; k < s.garment_fits[g].num_panels; ++k)
+        garment_of[s.panels[s.garment_fits[g].first_panel + k].name] = int(g);
+    for (size_t i = 0; i < s.seams.size(); ++i) {
+      const auto a = garment_of.find(s.seams[i].a.panel), b = garment_of.find(s.seams[i].b.panel);
+      const int ga = a == garment_of.end() ? -1 : a->second, gb = b == garment_of.end() ? -1 : b->second;
+      if (ga != gb)
+        fail(idx("seams", i), "joins panel '" + s.seams[i].a.panel + "' of " +
+                                  (ga < 0 ? std::string("the scene") : "garment " + s.garment_fits[ga].field) + " to panel '" +
+                                  s.seams[i].b.panel + "' of " +
+                                  (gb < 0 ? std::string("the scene") : "garment " + s.garment_fits[gb].field) +
+                                  ": garments placed on a body are fitted separately, so a seam cannot join them");
+    }
+  }
   non_negative(s.sewing.close_time, "/sewing/close_time");
+  if (s.sewing.close_tolerance) positive(*s.sewing.close_tolerance, "/sewing/close_tolerance");
   for (size_t i = 0; i < s.attachments.size(); ++i) {
     const AttachmentDef& a = s.attachments[i];
     const std::string p = idx("attachments", i);
@@ -916,6 +984,7 @@ void validate_scene(const SceneDef& s) {
           fail(p + "/speed", "must be a number >= 0");
         if (od.offset && !std::isfinite(*od.offset)) fail(p + "/offset", "must be finite");
         non_negative(od.blend_in, p + "/blend_in");
+        non_negative(od.hold, p + "/hold");
         break;
     }
     check_transform(od.transform, p);

@@ -65,6 +65,7 @@ inline StepView step_view_for(const SceneDef& scene, const ClothModel& model, ui
   s.iterations = uint32_t(scene.time.iterations);
   s.tolerance = float(scene.time.tolerance);
   s.gravity = make_vec3(scene.gravity[0], scene.gravity[1], scene.gravity[2]);
+  if (model.ease_gravity) s.gravity = s.gravity * s.sew;
   return s;
 }
 

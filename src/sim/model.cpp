@@ -470,9 +470,12 @@ ClothModel build_cloth_model(const SceneDef& s) {
   }
 
   // Seams: the two paths matched vertex to vertex (by arc length when their counts differ, adding
-  // vertices to pattern and mesh panels), each pair welded into one vertex below.
+  // vertices to pattern and mesh panels); each pair is welded into one vertex below, or stitched.
   std::vector<std::array<std::pair<size_t, uint32_t>, 2>> pairs;  // (panel, local vertex) x 2
+  std::vector<uint32_t> pair_seam;                                 // the seam of each pair
   for (size_t si = 0; si < s.seams.size(); ++si) {
+    const size_t first_pair = pairs.size();
+    const auto tag = [&] { pair_seam.resize(pairs.size(), uint32_t(si)); };
     const SeamDef& sd = s.seams[si];
     const std::string field = "/seams/" + std::to_string(si);
     const size_t ia = find_panel(s, sd.a.panel, field + "/a/panel"), ib = find_panel(s, sd.b.panel, field + "/b/panel");
@@ -491,6 +494,7 @@ ClothModel build_cloth_model(const SceneDef& s) {
                            std::to_string(eb.size()) + (ma.grid && mb.grid ? "" : "; a rectangle's edge is not resampled, give both the same count"));
     if (ea.size() == eb.size()) {
       for (size_t k = 0; k < ea.size(); ++k) pairs.push_back({{{ia, ea[k]}, {ib, eb[k]}}});
+      tag();
       continue;
     }
     // Walk both paths by arc length: vertices closer than a quarter of the local spacing pair up;
@@ -524,6 +528,8 @@ ClothModel build_cloth_model(const SceneDef& s) {
       }
     }
     pairs.push_back({{{ia, ea.back()}, {ib, eb.back()}}});
+    tag();
+    (void)first_pair;
   }
 
   // The panels one after another: vertices, masses, triangles, springs.
@@ -611,6 +617,23 @@ ClothModel build_cloth_model(const SceneDef& s) {
         if (!(mass[i] > 0))
           throw InputError(s.source, "/panels/" + std::to_string(pi),
                            "vertex " + std::to_string(i) + " of panel '" + pd.name + "' has no area around it (degenerate triangles)");
+      if (pd.min_mass_share > 0) {
+        // Lift the lightest vertices to the floor; the others pay for it in proportion to their mass.
+        std::vector<float> sorted = mass;
+        std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+        const double floor = double(pd.min_mass_share) * double(sorted[sorted.size() / 2]);
+        double total = 0, lifted = 0, rest = 0;
+        for (float w : mass) {
+          total += double(w);
+          if (double(w) < floor) lifted += floor - double(w);
+          else rest += double(w);
+        }
+        if (lifted > 0 && rest > lifted) {
+          const double keep = (rest - lifted) / rest;
+          for (float& w : mass) w = double(w) < floor ? float(floor) : float(double(w) * keep);
+        }
+        (void)total;
+      }
       m.mass.insert(m.mass.end(), mass.begin(), mass.end());
       fabric::Continuum c;
       if (measured) c = *measured, c.density = density;
@@ -649,12 +672,29 @@ ClothModel build_cloth_model(const SceneDef& s) {
     m.pieces.push_back(p);
   }
 
+  // Welded seams join their pairs into one vertex (weld_seams below); sewn ones get a stitch, a spring
+  // of rest length 0 whose rest length eases from the pair's start distance while the seams close.
   std::vector<uint32_t> parent(m.num_vertices());
   std::iota(parent.begin(), parent.end(), 0u);
-  for (const auto& pr : pairs) {
-    const uint32_t ra = find_root(parent, m.pieces[pr[0].first].first_vertex + pr[0].second);
-    const uint32_t rb = find_root(parent, m.pieces[pr[1].first].first_vertex + pr[1].second);
-    parent[std::max(ra, rb)] = std::min(ra, rb);
+  std::set<std::pair<uint32_t, uint32_t>> stitched;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const auto& pr = pairs[k];
+    const uint32_t ga = m.pieces[pr[0].first].first_vertex + pr[0].second;
+    const uint32_t gb = m.pieces[pr[1].first].first_vertex + pr[1].second;
+    const SeamDef& sd = s.seams[pair_seam[k]];
+    // A pair that starts within the thickness is closed already: welded, as a seam of panels placed
+    // edge to edge always was.
+    const bool closed = length(meshes[pr[0].first].placed[pr[0].second] - meshes[pr[1].first].placed[pr[1].second]) <=
+                        s.collision.thickness;
+    if (closed || sd.weld_at_start.value_or(s.sewing.weld_at_start)) {
+      const uint32_t ra = find_root(parent, ga), rb = find_root(parent, gb);
+      parent[std::max(ra, rb)] = std::min(ra, rb);
+    } else if (ga != gb && stitched.insert({std::min(ga, gb), std::max(ga, gb)}).second) {
+      const MaterialDef& mat = find_material(s, s.panels[pr[0].first].material, pr[0].first);
+      m.springs.push_back({ga, gb, 0.0f, sd.stiffness, mat.spring_damping, SpringType::Seam});
+      m.stitches.insert(m.stitches.end(), {ga, gb});
+      m.stitch_seam.push_back(pair_seam[k]);
+    }
   }
   m.alias.resize(m.num_vertices());
   for (uint32_t i = 0; i < m.num_vertices(); ++i) m.alias[i] = find_root(parent, i);
@@ -719,11 +759,13 @@ ClothModel build_cloth_model(const SceneDef& s) {
   }
 
   weld_seams(m);
+  for (uint32_t& v : m.stitches) v = m.alias[v];
   // Rest lengths at the placed start (after welding): where the springs start when seams close
   // over time (scene.sewing.close_time).
   if (s.sewing.close_time > 0) {
     for (Spring& sp : m.springs) sp.rest_start = length(m.initial_positions[sp.b] - m.initial_positions[sp.a]);
     m.sew_time = float(s.sewing.close_time);
+    m.ease_gravity = s.sewing.ease_gravity.value_or(!m.stitches.empty());
   }
   build_adjacency(m);
   return m;
@@ -869,6 +911,10 @@ namespace {
 // The animation time of a skinned obstacle at simulated time t, and how far the pose has blended
 // from the rest pose into the animation.
 std::pair<float, float> animation_time(const ObstacleDef& od, const SkinnedMesh& m, double t) {
+  if (od.hold > 0) {
+    if (t < od.hold) return {float(od.offset.value_or(m.start)), 0.0f};  // the rest pose
+    t -= od.hold;
+  }
   double a = od.offset.value_or(m.start) + double(od.speed) * t;
   const double span = double(m.end) - double(m.start);
   if (od.loop && span > 0) a = m.start + std::fmod(std::fmod(a - m.start, span) + span, span);

@@ -78,8 +78,12 @@ struct ClothModel {
   std::vector<uint32_t> adj_offset, adj_other;
   std::vector<float> adj_rest, adj_k, adj_kd, adj_rest_start;
   std::vector<uint32_t> alias;
+  // Seams sewn from apart: 2 vertices per stitch (each also a Seam spring of rest length 0), and the
+  // scene seam each belongs to. Welded seams have none (their pairs share an alias).
+  std::vector<uint32_t> stitches, stitch_seam;
   std::vector<Vec3> rest_positions;  // each panel's own shape (a pattern's plane, a mesh's OBJ coordinates)
   float sew_time = 0;                // seconds over which rest lengths go from adj_rest_start to adj_rest
+  bool ease_gravity = false;         // gravity eases in over sew_time too (SewingDef::ease_gravity)
   // Cloth vertices of each scene attachment (before welding), and the resolved attachments.
   std::vector<std::vector<uint32_t>> attachment_vertices;
   std::vector<uint32_t> attach_slot, attach_tri;

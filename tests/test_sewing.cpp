@@ -1,0 +1,218 @@
+// Seams sewn from apart (stitches whose pull eases in while collision acts) and garments placed on
+// a body from the pattern file alone (sim/garment_fit.h): the stitches close without crossing, the
+// fit puts the neck line at the body's, a panel through the body is moved clear, and every new
+// message word for word.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "fixtures.h"
+#include "raycloth/error.h"
+#include "raycloth/simulator.h"
+#include "sim/garment_fit.h"
+#include "sim/model.h"
+#include "sim/seams.h"
+
+using namespace raycloth;
+namespace fs = std::filesystem;
+
+namespace {
+
+OutlineSegment seg(const std::string& name, float x, float y) {
+  OutlineSegment s;
+  s.name = name;
+  s.from = {x, y};
+  return s;
+}
+
+PanelDef square(const std::string& name, float w, float e, Float3 at) {
+  PanelDef p;
+  p.name = name;
+  p.material = "test";
+  p.shape = PanelShape::Pattern;
+  p.pattern.edge_length = e;
+  p.pattern.outline = {seg("bottom", -w / 2, 0), seg("right", w / 2, 0), seg("top", w / 2, w), seg("left", -w / 2, w)};
+  p.transform.position = at;
+  return p;
+}
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("raycloth_sewing_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+void write(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
+
+// An OBJ of boxes stacked on the y axis: {half width (x), half depth (z), bottom, top} each.
+std::string boxes_obj(const std::vector<std::array<float, 4>>& boxes) {
+  std::string s;
+  int base = 1;
+  for (const auto& [hx, hz, y0, y1] : boxes) {
+    for (int k = 0; k < 8; ++k)
+      s += fmt::format("v {} {} {}\n", (k & 1) ? hx : -hx, (k & 2) ? y1 : y0, (k & 4) ? hz : -hz);
+    // Outward winding.
+    const int f[12][3] = {{0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}, {0, 1, 5}, {0, 5, 4},
+                          {2, 6, 7}, {2, 7, 3}, {0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}};
+    for (const auto& t : f) s += fmt::format("f {} {} {}\n", base + t[0], base + t[1], base + t[2]);
+    base += 8;
+  }
+  return s;
+}
+
+// A GarmentCode file of one square panel (side `cm`) standing in its x-y plane, its bottom edge's
+// middle at `at` (cm).
+std::string one_panel(float cm, std::array<float, 3> at) {
+  return fmt::format(R"({{"pattern": {{"panels": {{"front": {{"translation": [{}, {}, {}], "rotation": [0, 0, 0],
+    "vertices": [[{}, 0], [{}, 0], [{}, {}], [{}, {}]],
+    "edges": [{{"endpoints": [0, 1]}}, {{"endpoints": [1, 2]}}, {{"endpoints": [2, 3]}}, {{"endpoints": [3, 0]}}]}}}},
+    "stitches": []}}, "properties": {{"units_in_meter": 100, "curvature_coords": "relative"}}}})",
+                     at[0], at[1], at[2], -cm / 2, cm / 2, cm / 2, cm, -cm / 2, cm);
+}
+
+// A scene on a body made of boxes (torso 0.4 x 0.24 up to 1.45 m, neck 0.1 wide to 1.6 m, head to
+// 1.75 m), facing +z, with one garment read from `garment_file`.
+std::string body_scene(const std::string& garment_extra) {
+  return R"({"time": {"dt": 0.0002, "duration": 0.01},
+    "materials": [{"name": "m", "density": 0.2, "stretch": 100, "shear": 40, "bend": 2}],
+    "garments": [{"garmentcode": "g.json", "material": "m", "edge_length": 0.04)" +
+         garment_extra + R"(}],
+    "sewing": {"close_time": 0.3},
+    "obstacles": [{"name": "body", "type": "mesh", "file": "body.obj"}]})";
+}
+
+const std::vector<std::array<float, 4>> kBody = {{0.2f, 0.12f, 0.0f, 1.45f}, {0.05f, 0.05f, 1.45f, 1.6f}, {0.1f, 0.1f, 1.6f, 1.75f}};
+
+}  // namespace
+
+TEST(Sewing, StitchesCloseTwoPanelsPlacedTenCentimetresApartWithoutCrossing) {
+  // Two 0.2 m squares side by side with a 10 cm gap, no gravity; a's right side is sewn to b's left.
+  SceneDef s = test::panel_scene(2, 0.1f, 0.0f, 1.0f);
+  s.time.dt = 2e-4;
+  s.gravity = {0, 0, 0};
+  s.panels = {square("a", 0.2f, 0.025f, {-0.15f, 0.5f, 0}), square("b", 0.2f, 0.025f, {0.15f, 0.5f, 0})};
+  SeamDef seam;
+  seam.a = {"a", "", "right", std::nullopt};
+  seam.b = {"b", "", "left", std::nullopt};
+  seam.reverse = true;
+  s.seams.push_back(seam);
+  s.sewing.close_time = 0.4;
+  Simulator sim(s);
+  const ClothModel& m = sim.model();
+  // Not welded: every pair is a stitch, the panels keep their own vertices.
+  for (uint32_t i = 0; i < m.num_vertices(); ++i) ASSERT_EQ(m.alias[i], i);
+  ASSERT_GE(m.stitch_seam.size(), 9u);
+  EXPECT_NEAR(largest_stitch_gap(m, sim.positions()), 0.1f, 1e-5f);
+  // Every step checked exactly while the seam closes, then held for 0.2 s more.
+  ASSERT_EQ(test::step_checked(sim, 3000, 1), "");
+  const float tol = seam_close_tolerance(s);
+  EXPECT_LE(largest_stitch_gap(m, sim.positions()), tol);
+  for (const SeamGap& g : seam_gaps(m, sim.positions())) EXPECT_LE(g.largest, tol) << "seam " << g.seam;
+  // The two panels stay side by side: the sewn width is the two widths.
+  float lo = 1e9f, hi = -1e9f;
+  for (const Vec3& p : sim.positions()) lo = std::min(lo, p.x), hi = std::max(hi, p.x);
+  EXPECT_NEAR(hi - lo, 0.4f, 0.01f);
+}
+
+TEST(Sewing, WeldAtStartKeepsOneVertexPerPairAndPairsThatStartTogetherWeld) {
+  SceneDef s = test::panel_scene(2, 0.1f, 0.0f, 1.0f);
+  s.panels = {square("a", 0.2f, 0.025f, {-0.15f, 0.5f, 0}), square("b", 0.2f, 0.025f, {0.15f, 0.5f, 0})};
+  SeamDef seam;
+  seam.a = {"a", "", "right", std::nullopt};
+  seam.b = {"b", "", "left", std::nullopt};
+  seam.reverse = true;
+  seam.weld_at_start = true;
+  s.seams.push_back(seam);
+  ClothModel welded = build_cloth_model(s);
+  EXPECT_TRUE(welded.stitches.empty());
+  EXPECT_EQ(welded.spring_counts[size_t(SpringType::Seam)], 0u);
+  // Edge to edge (no gap): closed already, welded without being asked.
+  s.seams[0].weld_at_start.reset();
+  s.panels[1].transform.position = {0.2f, 0.5f, 0};
+  s.panels[0].transform.position = {0.0f, 0.5f, 0};
+  ClothModel touching = build_cloth_model(s);
+  EXPECT_TRUE(touching.stitches.empty());
+  size_t joined = 0;
+  for (uint32_t i = 0; i < touching.num_vertices(); ++i) joined += touching.alias[i] != i;
+  EXPECT_GE(joined, 9u);
+}
+
+TEST(GarmentFit, TheNeckLineOfAGarmentOnABodyIsTheBodys) {
+  const fs::path d = temp_dir("neck");
+  write(d / "body.obj", boxes_obj(kBody));
+  // A square whose top edge is at GarmentCode's neck line (145.7 cm).
+  write(d / "g.json", one_panel(40, {0, 105.7f, 20}));
+  const SceneDef s = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
+  ASSERT_EQ(s.garment_fits.size(), 1u);
+  ClothModel m = build_cloth_model(s);
+  const ObstacleSet o = build_obstacles(s);
+  std::vector<Vec3> x, v;
+  o.pose_at(0, x, v);
+  const BodyFrame f = body_frame(o, 0, x, o.defs[0].front);
+  // The narrowest cut between 80 % and 92 % of the height is the neck box (1.45 m to 1.6 m).
+  EXPECT_GT(f.neck, 1.45);
+  EXPECT_LT(f.neck, 1.4525 + 1e-6);
+  EXPECT_NEAR(f.height, 1.75, 1e-6);
+  const std::vector<PanelFit> fits = fit_garments(m, o, s);
+  ASSERT_EQ(fits.size(), 1u);
+  // Centred on the torso (a garment of one panel: the panel is its middle), then moved out of it
+  // horizontally: the height stays.
+  EXPECT_NEAR(std::abs(fits[0].moved), 0.125f, 1e-5f);
+  float top = -1e9f;
+  for (const Vec3& p : m.initial_positions) top = std::max(top, p.y);
+  EXPECT_NEAR(top, f.neck, 1e-4);
+}
+
+TEST(GarmentFit, APanelPlacedThroughTheBodyIsMovedClearAlongItsNormal) {
+  const fs::path d = temp_dir("through");
+  write(d / "body.obj", boxes_obj(kBody));
+  // The square stands in the torso's middle plane (z = 0), through the body.
+  write(d / "g.json", one_panel(30, {0, 105.7f, 0}));
+  const SceneDef s = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
+  ClothModel m = build_cloth_model(s);
+  const ObstacleSet o = build_obstacles(s);
+  const std::vector<PanelFit> fits = fit_garments(m, o, s);
+  ASSERT_EQ(fits.size(), 1u);
+  // Out through the torso's front or back face (0.12 m) by the clearance (2 x 2 mm), in 5 mm steps.
+  EXPECT_GE(std::abs(fits[0].moved), 0.12f + 0.004f);
+  EXPECT_LE(std::abs(fits[0].moved), 0.12f + 0.004f + 0.005f + 1e-5f);
+  for (const Vec3& p : m.initial_positions) EXPECT_GE(std::abs(p.z), 0.124f);
+  // And the simulator starts from there (nothing inside, nothing crossed).
+  EXPECT_NO_THROW(Simulator sim(s));
+}
+
+TEST(GarmentFit, BadGarmentsAreRefusedWordForWord) {
+  const fs::path d = temp_dir("bad");
+  write(d / "body.obj", boxes_obj(kBody));
+  write(d / "g.json", one_panel(30, {0, 105.7f, 20}));
+  const std::string file = (d / "scene.json").string();
+  auto message = [&](const std::string& text) {
+    try {
+      Simulator sim(parse_scene(text, file));
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  // A body that is not an obstacle.
+  std::string wrong = body_scene(", \"body\": \"man\"");
+  EXPECT_EQ(message(wrong), file + ": /garments/0/body: no obstacle named 'man' (the scene has 'body')");
+  // A seam between two garments.
+  std::string two = body_scene(", \"body\": \"body\", \"prefix\": \"a_\"}, {\"garmentcode\": \"g.json\", \"material\": \"m\", "
+                               "\"body\": \"body\", \"prefix\": \"b_\"");
+  two.replace(two.find("\"sewing\""), 0,
+              R"("seams": [{"a": {"panel": "a_front", "segment": "e1"}, "b": {"panel": "b_front", "segment": "e3"}}], )");
+  EXPECT_EQ(message(two), file + ": /seams/0: joins panel 'a_front' of garment /garments/0 to panel 'b_front' of garment "
+                                 "/garments/1: garments placed on a body are fitted separately, so a seam cannot join them");
+  // A panel that cannot be cleared: a 1 m deep body, the panel in its middle.
+  write(d / "body.obj", boxes_obj({{0.2f, 0.5f, 0.0f, 1.45f}, {0.05f, 0.05f, 1.45f, 1.6f}, {0.1f, 0.1f, 1.6f, 1.75f}}));
+  write(d / "g.json", one_panel(30, {0, 105.7f, 0}));
+  EXPECT_EQ(message(body_scene(", \"body\": \"body\"")),
+            file + ": /garments/0: panel 'front' starts inside or through obstacle 'body', and moving it up to 0.25 m either "
+                   "way along its normal did not clear it by 0.004 m; place the garment with position or the panel with "
+                   "panels.<name>.offset");
+  fs::remove_all(d);
+}
