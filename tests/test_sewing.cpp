@@ -110,6 +110,11 @@ TEST(Sewing, StitchesCloseTwoPanelsPlacedTenCentimetresApartWithoutCrossing) {
   ASSERT_EQ(test::step_checked(sim, 3000, 1), "");
   const float tol = seam_close_tolerance(s);
   EXPECT_LE(largest_stitch_gap(m, sim.positions()), tol);
+  // Closed by the end of the close time, every stitch was welded into one vertex then.
+  EXPECT_EQ(sim.stitches_welded(), m.stitch_seam.size());
+  size_t joined = 0;
+  for (uint32_t i = 0; i < m.num_vertices(); ++i) joined += m.alias[i] != i;
+  EXPECT_EQ(joined, m.stitch_seam.size());
   for (const SeamGap& g : seam_gaps(m, sim.positions())) EXPECT_LE(g.largest, tol) << "seam " << g.seam;
   // The two panels stay side by side: the sewn width is the two widths.
   float lo = 1e9f, hi = -1e9f;
@@ -215,4 +220,42 @@ TEST(GarmentFit, BadGarmentsAreRefusedWordForWord) {
                    "way along its normal did not clear it by 0.004 m; place the garment with position or the panel with "
                    "panels.<name>.offset");
   fs::remove_all(d);
+}
+
+TEST(GarmentFit, ABodyHeldStandsInItsRestPoseUntilTheHoldEnds) {
+  SceneDef s = test::panel_scene(2, 0.1f, 2.5f, 1.0f);
+  ObstacleDef man;
+  man.name = "man";
+  man.type = ObstacleType::Skinned;
+  man.file = std::string(RAYCLOTH_SOURCE_DIR) + "/assets/walking_man.glb";
+  man.animation = "walk";
+  man.hold = 0.5;
+  man.blend_in = 0.3;
+  s.obstacles.push_back(man);
+  const ObstacleSet o = build_obstacles(s);
+  std::vector<Vec3> rest, x, v;
+  o.pose_at(0.0, rest, v);
+  o.pose_at(0.49, x, v);
+  for (size_t i = 0; i < rest.size(); ++i) ASSERT_EQ(length(x[i] - rest[i]), 0.0f) << "vertex " << i;
+  o.pose_at(0.9, x, v);
+  float moved = 0;
+  for (size_t i = 0; i < rest.size(); ++i) moved = std::max(moved, length(x[i] - rest[i]));
+  EXPECT_GT(moved, 0.05f);  // walking by then
+}
+
+TEST(GarmentFit, ObstacleFrontAndHoldAreChecked) {
+  auto message = [](const std::string& obstacle) {
+    try {
+      parse_scene(R"({"panels": [{"name": "p", "material": "m", "size": [1, 1], "resolution": [2, 2]}],
+        "materials": [{"name": "m"}], "obstacles": [)" + obstacle + "]}",
+                  "s.json");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message(R"({"name": "b", "type": "box", "front": [0, 1, 0]})"),
+            "s.json: /obstacles/0/front: must point somewhere horizontal (x or z not 0)");
+  EXPECT_EQ(message(R"({"name": "b", "type": "box", "hold": 1})"),
+            "s.json: /obstacles/0/hold: field 'hold' does not apply to obstacle type 'box'");
 }

@@ -103,6 +103,9 @@ class Simulator {
     float moved = 0;
   };
   const std::vector<PanelMove>& panel_moves() const { return panel_moves_; }
+  // Stitches (seams sewn from apart) welded into one vertex so far: every kWeldCheckTime, each
+  // stitch within the close tolerance is welded.
+  uint64_t stitches_welded() const { return stitches_welded_; }
 
   // Edits between steps (src/sim/simulator_edit.cpp), for callers that drive the simulation
   // themselves (the Python module). The CPU backend has them; elsewhere they throw SimulationError.
@@ -123,6 +126,10 @@ class Simulator {
   SceneDef step_scene_;  // what the backend steps: scene_ with dt / substeps_
   int substeps_ = 1;
   std::vector<PanelMove> panel_moves_;
+  uint64_t stitches_welded_ = 0, weld_from_ = 0, weld_every_ = 1;
+  void advance(int n);
+  size_t weld_closed_stitches();
+  void rebuild_backend();
   std::unique_ptr<ClothModel> model_;
   std::unique_ptr<ObstacleSet> obstacles_;
   std::unique_ptr<Backend> backend_;
@@ -134,6 +141,9 @@ class Simulator {
   double max_residual_ = 0;
   StageTimes times_;
 };
+
+// How often (simulated seconds) stitches within the close tolerance are welded.
+inline constexpr double kWeldCheckTime = 0.002;
 
 // The most a body point may move in one (sub)step of the implicit integrator, metres.
 inline constexpr double kImplicitMaxBodyMove = 0.0005;

@@ -113,7 +113,10 @@ class Progress {
 nlohmann::json seams_json(const RunReport& r, Simulator& sim) {
   const SceneDef& s = sim.scene();
   const float tol = seam_close_tolerance(s);
-  nlohmann::json j = {{"stitches", sim.model().stitch_seam.size()}, {"close_time", s.sewing.close_time}, {"close_tolerance", tol}};
+  nlohmann::json j = {{"stitches", sim.model().stitch_seam.size()},
+                      {"welded", sim.stitches_welded()},
+                      {"close_time", s.sewing.close_time},
+                      {"close_tolerance", tol}};
   const FrameRecord* at_close = nullptr;
   for (const FrameRecord& f : r.frames)
     if (!at_close && f.time >= s.sewing.close_time - 1e-9) at_close = &f;

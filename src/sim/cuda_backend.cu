@@ -389,6 +389,7 @@ class CudaBackend final : public Backend {
     adj_k_ = DeviceBuffer<float>(m.adj_k);
     adj_kd_ = DeviceBuffer<float>(m.adj_kd);
     alias_ = DeviceBuffer<uint32_t>(m.alias);
+    sew_group_ = DeviceBuffer<uint32_t>(m.sew_group);
     cloth_indices_ = DeviceBuffer<uint32_t>(m.collision_triangles);
     tri_alias_ = DeviceBuffer<uint32_t>(m.tri_alias);
     edges_ = DeviceBuffer<uint32_t>(m.edges);
@@ -474,6 +475,7 @@ class CudaBackend final : public Backend {
     s.model.adj_k = adj_k_.data();
     s.model.adj_kd = adj_kd_.data();
     s.model.alias = alias_.data();
+    s.model.sew_group = sew_group_.size() > 0 ? sew_group_.data() : nullptr;
     s.model.triangles = cloth_indices_.data();
     s.model.tri_alias = tri_alias_.data();
     s.model.edges = edges_.data();
@@ -531,7 +533,7 @@ class CudaBackend final : public Backend {
   int obstacle_refits_since_build_ = 0;
 
   DeviceBuffer<float> inv_mass_, damping_, adj_rest_, adj_k_, adj_kd_;
-  DeviceBuffer<uint32_t> adj_offset_, adj_other_, alias_, cloth_indices_, tri_alias_, edges_;
+  DeviceBuffer<uint32_t> adj_offset_, adj_other_, alias_, sew_group_, cloth_indices_, tri_alias_, edges_;
   DeviceBuffer<uint8_t> tri_edge_owner_;
   // Seams closing over time and attachments (empty when the scene has none).
   DeviceBuffer<float> adj_rest_start_, attach_lift_, attach_k_, attach_kd_;

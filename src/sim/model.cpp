@@ -51,14 +51,21 @@ std::vector<uint32_t> edge_vertices(const Piece& p, const std::string& edge, con
   return ids;
 }
 
+// Distance from p to the segment ab.
+float segment_distance(Vec3 p, Vec3 a, Vec3 b) {
+  const Vec3 ab = b - a;
+  const float l2 = dot(ab, ab);
+  const float t = l2 > 0 ? std::clamp(dot(p - a, ab) / l2, 0.0f, 1.0f) : 0.0f;
+  return length(p - (a + ab * t));
+}
+
 uint32_t find_root(std::vector<uint32_t>& parent, uint32_t i) {
   while (parent[i] != i) i = parent[i] = parent[parent[i]];
   return i;
 }
 
-// Makes each seam group one simulated vertex: the group meets at its centroid, its representative
-// carries the group's mass (pinned if any member is) and every spring, and the other members follow
-// it (inv_mass 0, mass 0, copied at the end of each step). Triangles and edges use representatives.
+}  // namespace
+
 void weld_seams(ClothModel& m) {
   const uint32_t n = m.num_vertices();
   std::vector<Vec3> sum(n, make_vec3(0, 0, 0));
@@ -89,6 +96,8 @@ void weld_seams(ClothModel& m) {
   m.collision_triangles.resize(m.triangles.size());
   for (size_t k = 0; k < m.triangles.size(); ++k) m.collision_triangles[k] = m.alias[m.triangles[k]];
   m.tri_alias = m.collision_triangles;
+  if (!m.sew_group.empty())  // the rays skip every triangle of their vertex's group
+    for (uint32_t& c : m.tri_alias) c = m.sew_group[c];
   std::vector<std::pair<uint32_t, uint32_t>> e;
   e.reserve(m.triangles.size());
   std::set<std::pair<uint32_t, uint32_t>> seen;
@@ -118,8 +127,6 @@ void weld_seams(ClothModel& m) {
   m.mean_edge = e.empty() ? 0.0f : float(total / double(e.size()));
 }
 
-}  // namespace
-
 ModelView ClothModel::view() const {
   ModelView v;
   v.num_vertices = num_vertices();
@@ -138,6 +145,7 @@ ModelView ClothModel::view() const {
   v.num_triangles = num_collision_triangles();
   v.tri_edge_owner = tri_edge_owner.data();
   v.adj_rest_start = adj_rest_start.empty() ? nullptr : adj_rest_start.data();
+  v.sew_group = sew_group.empty() ? nullptr : sew_group.data();
   if (!attach_tri.empty()) {
     v.attach_slot = attach_slot.data();
     v.attach_tri = attach_tri.data();
@@ -682,10 +690,22 @@ ClothModel build_cloth_model(const SceneDef& s) {
     const uint32_t ga = m.pieces[pr[0].first].first_vertex + pr[0].second;
     const uint32_t gb = m.pieces[pr[1].first].first_vertex + pr[1].second;
     const SeamDef& sd = s.seams[pair_seam[k]];
-    // A pair that starts within the thickness is closed already: welded, as a seam of panels placed
-    // edge to edge always was.
-    const bool closed = length(meshes[pr[0].first].placed[pr[0].second] - meshes[pr[1].first].placed[pr[1].second]) <=
-                        s.collision.thickness;
+    // A pair that starts closed is welded, as a seam of panels placed edge to edge always was: within
+    // the thickness of each other, or each on the other side's path (the two paths lying on each
+    // other with their vertices matched a spacing apart: sewn, they would start at distance 0 from
+    // the other side's edges, where the displacement bound leaves them no room to move).
+    auto placed = [&](const std::pair<size_t, uint32_t>& v) { return meshes[v.first].placed[v.second]; };
+    auto near_side = [&](Vec3 p, int side) {
+      for (size_t j = k; j < pairs.size() && pair_seam[j] == pair_seam[k]; ++j)
+        if (j + 1 < pairs.size() && pair_seam[j + 1] == pair_seam[k] &&
+            segment_distance(p, placed(pairs[j][side]), placed(pairs[j + 1][side])) <= s.collision.thickness)
+          return true;
+      for (size_t j = k; j-- > 0 && pair_seam[j] == pair_seam[k];)
+        if (segment_distance(p, placed(pairs[j][side]), placed(pairs[j + 1][side])) <= s.collision.thickness) return true;
+      return false;
+    };
+    const bool closed = length(placed(pr[0]) - placed(pr[1])) <= s.collision.thickness ||
+                        (near_side(placed(pr[0]), 1) && near_side(placed(pr[1]), 0));
     if (closed || sd.weld_at_start.value_or(s.sewing.weld_at_start)) {
       const uint32_t ra = find_root(parent, ga), rb = find_root(parent, gb);
       parent[std::max(ra, rb)] = std::min(ra, rb);
@@ -758,6 +778,17 @@ ClothModel build_cloth_model(const SceneDef& s) {
     m.attachment_vertices.push_back(std::move(ids));
   }
 
+  // Sew groups: welded partners and stitched pairs, each group named by its smallest vertex.
+  if (!m.stitches.empty()) {
+    std::vector<uint32_t> group(m.num_vertices());
+    for (uint32_t i = 0; i < m.num_vertices(); ++i) group[i] = find_root(parent, i);
+    for (size_t k = 0; k + 1 < m.stitches.size(); k += 2) {
+      const uint32_t ra = find_root(group, m.stitches[k]), rb = find_root(group, m.stitches[k + 1]);
+      group[std::max(ra, rb)] = std::min(ra, rb);
+    }
+    m.sew_group.resize(m.num_vertices());
+    for (uint32_t i = 0; i < m.num_vertices(); ++i) m.sew_group[i] = find_root(group, i);
+  }
   weld_seams(m);
   for (uint32_t& v : m.stitches) v = m.alias[v];
   // Rest lengths at the placed start (after welding): where the springs start when seams close

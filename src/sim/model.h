@@ -42,6 +42,10 @@ struct ModelView {
   const float* adj_k = nullptr;
   const float* adj_kd = nullptr;
   const uint32_t* alias = nullptr;       // vertices joined by a seam share one alias
+  // Null unless seams are sewn from apart: per vertex the smallest vertex joined to it by welds and
+  // stitches. Features of one group are neighbours (sew_neighbours): the contact, the bound and the
+  // rays leave them alone, so that the two sides of a stitch close onto each other.
+  const uint32_t* sew_group = nullptr;
   const uint32_t* triangles = nullptr;   // 3 per collision triangle (corners welded across seams)
   const uint32_t* tri_alias = nullptr;   // alias of each collision-triangle corner
   const uint32_t* edges = nullptr;       // 2 per edge of the cloth surface
@@ -69,6 +73,13 @@ struct ModelView {
 
 inline constexpr uint32_t kNoAttachment = 0xFFFFFFFFu;
 
+// The vertex's sew group (itself when nothing is stitched).
+RC_HD uint32_t sew_group_of(const ModelView& m, uint32_t v) { return m.sew_group ? m.sew_group[v] : v; }
+// Two vertices of one sew group (the same vertex, welded or stitched together): neighbours.
+RC_HD bool sew_neighbours(const ModelView& m, uint32_t a, uint32_t b) {
+  return a == b || (m.sew_group && m.sew_group[a] == m.sew_group[b]);
+}
+
 struct ClothModel {
   std::vector<Piece> pieces;
   std::vector<Vec3> initial_positions;
@@ -81,6 +92,7 @@ struct ClothModel {
   // Seams sewn from apart: 2 vertices per stitch (each also a Seam spring of rest length 0), and the
   // scene seam each belongs to. Welded seams have none (their pairs share an alias).
   std::vector<uint32_t> stitches, stitch_seam;
+  std::vector<uint32_t> sew_group;  // see ModelView; empty when nothing is stitched
   std::vector<Vec3> rest_positions;  // each panel's own shape (a pattern's plane, a mesh's OBJ coordinates)
   float sew_time = 0;                // seconds over which rest lengths go from adj_rest_start to adj_rest
   bool ease_gravity = false;         // gravity eases in over sew_time too (SewingDef::ease_gravity)
@@ -155,6 +167,12 @@ struct ObstacleSet {
   void skinned_joints(size_t oi, double t, std::vector<Affine>& pose, std::vector<Affine>& rate) const;
 };
 
+// Makes each seam group (vertices sharing model.alias) one simulated vertex: the group meets at the
+// centroid of its members' initial_positions, its representative carries the group's mass (pinned if
+// any member is) and every spring, and the other members follow it (inv_mass 0, mass 0, copied at
+// the end of each step). Collision triangles, their aliases and the edges use representatives. Run
+// again after more pairs share an alias (stitches welded once closed, Simulator).
+void weld_seams(ClothModel& model);
 // Fills the per-vertex CSR adjacency and the spring counts from model.springs.
 void build_adjacency(ClothModel& model);
 // Builds the model; throws InputError for seams or pins that do not fit the panels.

@@ -12,6 +12,7 @@
 #include "sim/backend.h"
 #include "sim/garment_fit.h"
 #include "sim/model.h"
+#include "sim/seams.h"
 
 namespace raycloth {
 
@@ -95,6 +96,65 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
   }
   x_ = model_->initial_positions;
   v_.assign(x_.size(), make_vec3(0, 0, 0));
+  // Stitches are welded as they close: every kWeldCheckTime of simulated time, each stitch within
+  // the close tolerance becomes one vertex (a pair welded as soon as it arrives cannot overshoot
+  // its partner through the triangles beside it).
+  if (!model_->stitches.empty()) {
+    weld_from_ = 0;
+    weld_every_ = uint64_t(std::max(1.0, std::round(kWeldCheckTime / scene_.time.dt)));
+  }
+}
+
+// The backend again, over the model as it is now, from the state (x_, v_): a backend that takes
+// edits keeps the velocities; another starts from the model's start positions at rest.
+void Simulator::rebuild_backend() {
+  const BackendInput in{&step_scene_, model_.get(), obstacles_.get()};
+  const bool cuda = backend_->name() == "cuda";
+  backend_.reset();
+  backend_ = cuda ? make_cuda_backend(in) : make_cpu_backend(in);
+  if (backend_->can_edit()) backend_->replace_state(x_, v_);
+  else v_.assign(v_.size(), make_vec3(0, 0, 0));
+  synced_ = true;
+}
+
+// Joins every open stitch whose two vertices are within the close tolerance into one vertex (the
+// group's centroid, its mass-weighted velocity): the model is welded again (sim/model.h,
+// weld_seams) and the backend rebuilt from the current state. Returns how many were welded.
+size_t Simulator::weld_closed_stitches() {
+  ClothModel& m = *model_;
+  positions();
+  const float tol = seam_close_tolerance(scene_);
+  std::vector<uint32_t>& alias = m.alias;
+  size_t welded = 0;
+  std::vector<uint32_t> old_alias = alias;
+  for (size_t k = 0; k + 1 < m.stitches.size(); k += 2) {
+    const uint32_t ra = alias[m.stitches[k]], rb = alias[m.stitches[k + 1]];
+    if (ra == rb || length(x_[ra] - x_[rb]) > tol) continue;
+    const uint32_t lo = std::min(ra, rb), hi = std::max(ra, rb);
+    for (uint32_t& r : alias)
+      if (r == hi) r = lo;
+    ++welded;
+  }
+  if (welded == 0) return 0;
+  // The groups' velocities, mass-weighted over the old representatives.
+  std::vector<Vec3> momentum(x_.size(), make_vec3(0, 0, 0));
+  std::vector<float> group_mass(x_.size(), 0.0f);
+  for (uint32_t i = 0; i < x_.size(); ++i)
+    if (old_alias[i] == i) {
+      momentum[alias[i]] += v_[i] * m.mass[i];
+      group_mass[alias[i]] += m.mass[i];
+    }
+  m.initial_positions = x_;
+  weld_seams(m);
+  build_adjacency(m);
+  for (uint32_t i = 0; i < x_.size(); ++i) {
+    const uint32_t r = alias[i];
+    x_[i] = m.initial_positions[i];
+    v_[i] = group_mass[r] > 0 ? momentum[r] / group_mass[r] : v_[r];
+  }
+  stitches_welded_ += welded;
+  rebuild_backend();
+  return welded;
 }
 
 Simulator::~Simulator() = default;
@@ -102,6 +162,20 @@ Simulator::~Simulator() = default;
 std::string Simulator::device() const { return backend_->name(); }
 
 void Simulator::step(int n) {
+  while (n > 0) {
+    int chunk = n;
+    const bool open = !model_->stitches.empty() && stitches_welded_ < model_->stitch_seam.size();
+    if (open) {  // stop at the next weld check
+      const uint64_t next = steps_ < weld_from_ ? weld_from_ : steps_ + weld_every_ - (steps_ - weld_from_) % weld_every_;
+      chunk = int(std::min<uint64_t>(uint64_t(n), next - steps_));
+    }
+    advance(chunk);
+    n -= chunk;
+    if (open && steps_ >= weld_from_ && (steps_ - weld_from_) % weld_every_ == 0) weld_closed_stitches();
+  }
+}
+
+void Simulator::advance(int n) {
   if (n <= 0) return;
   const uint64_t k = uint64_t(substeps_);
   StepResult r = backend_->step(n * substeps_, steps_ * k, times_);
@@ -150,6 +224,9 @@ void Simulator::save_state(ByteWriter& out) {
     out.u64(v);
   out.f64(max_residual_);
   out.pod(times_);
+  // Which stitches have been welded (the model's seam groups now).
+  out.u64(stitches_welded_);
+  out.vec(model_->alias);
   backend_->save(out);
 }
 
@@ -160,6 +237,18 @@ void Simulator::restore_state(ByteReader& in) {
     *v = in.u64();
   max_residual_ = in.f64();
   in.pod(times_);
+  const uint64_t welded = in.u64();
+  std::vector<uint32_t> alias;
+  in.vec(alias, model_->num_vertices(), "seam groups");
+  if (alias != model_->alias) {
+    model_->alias = alias;
+    weld_seams(*model_);
+    build_adjacency(*model_);
+    x_ = model_->initial_positions;
+    v_.assign(x_.size(), make_vec3(0, 0, 0));
+    rebuild_backend();
+  }
+  stitches_welded_ = welded;
   backend_->restore(in, steps_ * uint64_t(substeps_));
   synced_ = false;
 }
