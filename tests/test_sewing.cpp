@@ -259,3 +259,22 @@ TEST(GarmentFit, ObstacleFrontAndHoldAreChecked) {
   EXPECT_EQ(message(R"({"name": "b", "type": "box", "hold": 1})"),
             "s.json: /obstacles/0/hold: field 'hold' does not apply to obstacle type 'box'");
 }
+
+TEST(Sewing, TheTwoSidesOfAStitchCloseOntoEachOtherNotOneThicknessApart) {
+  // The same two squares, closing to within half a millimetre (a tenth of the default tolerance):
+  // every stitch still gets there and is welded, nothing crossing on the way.
+  SceneDef s = test::panel_scene(2, 0.1f, 0.0f, 1.0f);
+  s.time.dt = 2e-4;
+  s.gravity = {0, 0, 0};
+  s.panels = {square("a", 0.2f, 0.025f, {-0.15f, 0.5f, 0}), square("b", 0.2f, 0.025f, {0.15f, 0.5f, 0})};
+  SeamDef seam;
+  seam.a = {"a", "", "right", std::nullopt};
+  seam.b = {"b", "", "left", std::nullopt};
+  seam.reverse = true;
+  s.seams.push_back(seam);
+  s.sewing.close_time = 0.4;
+  s.sewing.close_tolerance = 0.0005f;
+  Simulator sim(s);
+  ASSERT_EQ(test::step_checked(sim, 3000, 10), "");
+  EXPECT_EQ(sim.stitches_welded(), sim.model().stitch_seam.size());
+}
