@@ -146,7 +146,7 @@ void warn_open_seams(Simulator& sim, const RunReport& r) {
                      s.sewing.close_time, f.seam_gap, tol);
       break;
     }
-  if (r.frames.back().seam_gap > tol)
+  if (r.frames.back().time >= s.sewing.close_time - 1e-9 && r.frames.back().seam_gap > tol)
     spdlog::warn("seams open at the end of the run: the widest stitch is {:.3g} m apart", r.frames.back().seam_gap);
 }
 
