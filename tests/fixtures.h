@@ -10,6 +10,26 @@
 
 namespace raycloth::test {
 
+inline OutlineSegment seg(const std::string& name, float x, float y) {
+  OutlineSegment s;
+  s.name = name;
+  s.from = {x, y};
+  return s;
+}
+
+// A w x h rectangle pattern (bottom, right, top, left), meshed at edge length e, standing in the
+// x-y plane at `at`.
+inline PanelDef rect_pattern(const std::string& name, float w, float h, float e, Float3 at) {
+  PanelDef p;
+  p.name = name;
+  p.material = "test";
+  p.shape = PanelShape::Pattern;
+  p.pattern.edge_length = e;
+  p.pattern.outline = {seg("bottom", -w / 2, 0), seg("right", w / 2, 0), seg("top", w / 2, h), seg("left", -w / 2, h)};
+  p.transform.position = at;
+  return p;
+}
+
 inline MaterialDef test_material(float damping = 0.0f) {
   MaterialDef m;
   m.name = "test";

@@ -19,25 +19,8 @@ using test::step_checked;
 
 namespace {
 
-OutlineSegment seg(const std::string& name, float x, float y) {
-  OutlineSegment s;
-  s.name = name;
-  s.from = {x, y};
-  return s;
-}
-
-// A w x h rectangle pattern (bottom, right, top, left), meshed at edge length e, standing in the
-// x-y plane at `at`.
-PanelDef rect_pattern(const std::string& name, float w, float h, float e, Float3 at) {
-  PanelDef p;
-  p.name = name;
-  p.material = "test";
-  p.shape = PanelShape::Pattern;
-  p.pattern.edge_length = e;
-  p.pattern.outline = {seg("bottom", -w / 2, 0), seg("right", w / 2, 0), seg("top", w / 2, h), seg("left", -w / 2, h)};
-  p.transform.position = at;
-  return p;
-}
+using test::rect_pattern;
+using test::seg;
 
 SceneDef scene_with(std::vector<PanelDef> panels) {
   SceneDef s = test::panel_scene(2, 0.1f, 0.0f, 1.0f);

@@ -20,22 +20,23 @@ namespace fs = std::filesystem;
 
 namespace {
 
-OutlineSegment seg(const std::string& name, float x, float y) {
-  OutlineSegment s;
-  s.name = name;
-  s.from = {x, y};
-  return s;
-}
+// A w x w pattern square (bottom, right, top, left) meshed at e, standing in the x-y plane at `at`.
+PanelDef square(const std::string& name, float w, float e, Float3 at) { return test::rect_pattern(name, w, w, e, at); }
 
-PanelDef square(const std::string& name, float w, float e, Float3 at) {
-  PanelDef p;
-  p.name = name;
-  p.material = "test";
-  p.shape = PanelShape::Pattern;
-  p.pattern.edge_length = e;
-  p.pattern.outline = {seg("bottom", -w / 2, 0), seg("right", w / 2, 0), seg("top", w / 2, w), seg("left", -w / 2, w)};
-  p.transform.position = at;
-  return p;
+// Two 0.2 m squares side by side with a 10 cm gap, no gravity; a's right side sewn to b's left
+// (closing over 0.4 s).
+SceneDef two_squares_sewn() {
+  SceneDef s = test::panel_scene(2, 0.1f, 0.0f, 1.0f);
+  s.time.dt = 2e-4;
+  s.gravity = {0, 0, 0};
+  s.panels = {square("a", 0.2f, 0.025f, {-0.15f, 0.5f, 0}), square("b", 0.2f, 0.025f, {0.15f, 0.5f, 0})};
+  SeamDef seam;
+  seam.a = {"a", "", "right", std::nullopt};
+  seam.b = {"b", "", "left", std::nullopt};
+  seam.reverse = true;
+  s.seams.push_back(seam);
+  s.sewing.close_time = 0.4;
+  return s;
 }
 
 fs::path temp_dir(const std::string& name) {
@@ -89,17 +90,7 @@ const std::vector<std::array<float, 4>> kBody = {{0.2f, 0.12f, 0.0f, 1.45f}, {0.
 }  // namespace
 
 TEST(Sewing, StitchesCloseTwoPanelsPlacedTenCentimetresApartWithoutCrossing) {
-  // Two 0.2 m squares side by side with a 10 cm gap, no gravity; a's right side is sewn to b's left.
-  SceneDef s = test::panel_scene(2, 0.1f, 0.0f, 1.0f);
-  s.time.dt = 2e-4;
-  s.gravity = {0, 0, 0};
-  s.panels = {square("a", 0.2f, 0.025f, {-0.15f, 0.5f, 0}), square("b", 0.2f, 0.025f, {0.15f, 0.5f, 0})};
-  SeamDef seam;
-  seam.a = {"a", "", "right", std::nullopt};
-  seam.b = {"b", "", "left", std::nullopt};
-  seam.reverse = true;
-  s.seams.push_back(seam);
-  s.sewing.close_time = 0.4;
+  const SceneDef s = two_squares_sewn();
   Simulator sim(s);
   const ClothModel& m = sim.model();
   // Not welded: every pair is a stitch, the panels keep their own vertices.
@@ -123,14 +114,8 @@ TEST(Sewing, StitchesCloseTwoPanelsPlacedTenCentimetresApartWithoutCrossing) {
 }
 
 TEST(Sewing, WeldAtStartKeepsOneVertexPerPairAndPairsThatStartTogetherWeld) {
-  SceneDef s = test::panel_scene(2, 0.1f, 0.0f, 1.0f);
-  s.panels = {square("a", 0.2f, 0.025f, {-0.15f, 0.5f, 0}), square("b", 0.2f, 0.025f, {0.15f, 0.5f, 0})};
-  SeamDef seam;
-  seam.a = {"a", "", "right", std::nullopt};
-  seam.b = {"b", "", "left", std::nullopt};
-  seam.reverse = true;
-  seam.weld_at_start = true;
-  s.seams.push_back(seam);
+  SceneDef s = two_squares_sewn();
+  s.seams[0].weld_at_start = true;
   ClothModel welded = build_cloth_model(s);
   EXPECT_TRUE(welded.stitches.empty());
   EXPECT_EQ(welded.spring_counts[size_t(SpringType::Seam)], 0u);
@@ -263,16 +248,7 @@ TEST(GarmentFit, ObstacleFrontAndHoldAreChecked) {
 TEST(Sewing, TheTwoSidesOfAStitchCloseOntoEachOtherNotOneThicknessApart) {
   // The same two squares, closing to within half a millimetre (a tenth of the default tolerance):
   // every stitch still gets there and is welded, nothing crossing on the way.
-  SceneDef s = test::panel_scene(2, 0.1f, 0.0f, 1.0f);
-  s.time.dt = 2e-4;
-  s.gravity = {0, 0, 0};
-  s.panels = {square("a", 0.2f, 0.025f, {-0.15f, 0.5f, 0}), square("b", 0.2f, 0.025f, {0.15f, 0.5f, 0})};
-  SeamDef seam;
-  seam.a = {"a", "", "right", std::nullopt};
-  seam.b = {"b", "", "left", std::nullopt};
-  seam.reverse = true;
-  s.seams.push_back(seam);
-  s.sewing.close_time = 0.4;
+  SceneDef s = two_squares_sewn();
   s.sewing.close_tolerance = 0.0005f;
   Simulator sim(s);
   ASSERT_EQ(test::step_checked(sim, 3000, 10), "");

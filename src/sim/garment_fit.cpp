@@ -29,6 +29,15 @@ struct Body {
   std::vector<uint32_t> tris;  // 3 per triangle, into *x
 };
 
+// Obstacle oi's triangles over the posed vertices.
+Body obstacle_body(const ObstacleSet& obstacles, size_t oi, const std::vector<Vec3>& posed) {
+  Body b;
+  b.x = &posed;
+  b.tris.assign(obstacles.world.indices.begin() + 3 * obstacles.first_triangle[oi],
+                obstacles.world.indices.begin() + 3 * obstacles.end_triangle(oi));
+  return b;
+}
+
 Section section(const Body& b, double h, const BodyFrame& f) {
   Section s;
   const std::vector<Vec3>& x = *b.x;
@@ -137,11 +146,7 @@ BodyFrame body_frame(const ObstacleSet& obstacles, size_t oi, const std::vector<
   double lo = INFINITY, hi = -INFINITY;
   for (uint32_t v = v0; v < v0 + nv; ++v) lo = std::min(lo, double(posed[v].y)), hi = std::max(hi, double(posed[v].y));
   f.floor = lo, f.height = hi - lo;
-  Body b;
-  b.x = &posed;
-  const uint32_t t0 = obstacles.first_triangle[oi];
-  const uint32_t t1 = oi + 1 < obstacles.names.size() ? obstacles.first_triangle[oi + 1] : uint32_t(obstacles.world.num_triangles());
-  b.tris.assign(obstacles.world.indices.begin() + 3 * t0, obstacles.world.indices.begin() + 3 * t1);
+  const Body b = obstacle_body(obstacles, oi, posed);
   double best = INFINITY;
   f.neck = lo + kGarmentCodeNeck / kGarmentCodeHeight * f.height;  // where no section is found
   for (double h = lo + 0.80 * f.height; h <= lo + 0.92 * f.height; h += 0.0025) {
@@ -162,11 +167,7 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
     while (oi < obstacles.names.size() && obstacles.names[oi] != g.body) ++oi;
     if (oi == obstacles.names.size()) throw InputError(scene.source, g.field + "/body", "no obstacle named '" + g.body + "'");
     const BodyFrame f = body_frame(obstacles, oi, posed, obstacles.defs[oi].front);
-    Body body;
-    body.x = &posed;
-    const uint32_t t0 = obstacles.first_triangle[oi];
-    const uint32_t t1 = oi + 1 < obstacles.names.size() ? obstacles.first_triangle[oi + 1] : uint32_t(obstacles.world.num_triangles());
-    body.tris.assign(obstacles.world.indices.begin() + 3 * t0, obstacles.world.indices.begin() + 3 * t1);
+    const Body body = obstacle_body(obstacles, oi, posed);
 
     // The garment's vertices, in the pattern's frame.
     std::vector<uint32_t> ids;

@@ -482,7 +482,6 @@ ClothModel build_cloth_model(const SceneDef& s) {
   std::vector<std::array<std::pair<size_t, uint32_t>, 2>> pairs;  // (panel, local vertex) x 2
   std::vector<uint32_t> pair_seam;                                 // the seam of each pair
   for (size_t si = 0; si < s.seams.size(); ++si) {
-    const size_t first_pair = pairs.size();
     const auto tag = [&] { pair_seam.resize(pairs.size(), uint32_t(si)); };
     const SeamDef& sd = s.seams[si];
     const std::string field = "/seams/" + std::to_string(si);
@@ -537,7 +536,6 @@ ClothModel build_cloth_model(const SceneDef& s) {
     }
     pairs.push_back({{{ia, ea.back()}, {ib, eb.back()}}});
     tag();
-    (void)first_pair;
   }
 
   // The panels one after another: vertices, masses, triangles, springs.
@@ -630,9 +628,8 @@ ClothModel build_cloth_model(const SceneDef& s) {
         std::vector<float> sorted = mass;
         std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
         const double floor = double(pd.min_mass_share) * double(sorted[sorted.size() / 2]);
-        double total = 0, lifted = 0, rest = 0;
+        double lifted = 0, rest = 0;
         for (float w : mass) {
-          total += double(w);
           if (double(w) < floor) lifted += floor - double(w);
           else rest += double(w);
         }
@@ -640,7 +637,6 @@ ClothModel build_cloth_model(const SceneDef& s) {
           const double keep = (rest - lifted) / rest;
           for (float& w : mass) w = double(w) < floor ? float(floor) : float(double(w) * keep);
         }
-        (void)total;
       }
       m.mass.insert(m.mass.end(), mass.begin(), mass.end());
       fabric::Continuum c;
@@ -823,7 +819,7 @@ void resolve_attachments(ClothModel& m, const ObstacleSet& obstacles, const Scen
       throw InputError(s.source, field + "/obstacle",
                        "unknown obstacle '" + ad.obstacle + "' (the scene has " + (known.empty() ? "none" : known) + ")");
     const uint32_t t0 = obstacles.first_triangle[oi];
-    const uint32_t t1 = oi + 1 < obstacles.names.size() ? obstacles.first_triangle[oi + 1] : uint32_t(obstacles.world.num_triangles());
+    const uint32_t t1 = obstacles.end_triangle(oi);
     const uint32_t v0 = obstacles.first_vertex[oi], nv = uint32_t(obstacles.local[oi].vertices.size());
     const std::vector<uint32_t>& cloth = m.attachment_vertices[ai];
     if (!ad.obstacle_vertices.empty() && ad.obstacle_vertices.size() != cloth.size())

@@ -156,6 +156,10 @@ struct ObstacleSet {
   };
   std::vector<Scripted> scripted;
   uint32_t num_collision_triangles() const { return uint32_t(collision_indices.size() / 3); }
+  // Obstacle oi's triangles in `world`: [first_triangle[oi], end_triangle(oi)).
+  uint32_t end_triangle(size_t oi) const {
+    return oi + 1 < names.size() ? first_triangle[oi + 1] : uint32_t(world.num_triangles());
+  }
   // World-space vertices and per-vertex velocities at simulated time t.
   void pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec3>& velocities) const;
   // The fastest any obstacle vertex moves over [0, duration], sampled every `every` seconds (and at
