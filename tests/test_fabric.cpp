@@ -8,7 +8,7 @@
 #include <limits>
 
 #include "fabric/kes.h"
-#include "fabric/tests.h"
+#include "lab/fabric_tests.h"
 #include "fixtures.h"
 #include "raycloth/error.h"
 #include "raycloth/scene.h"
@@ -207,9 +207,9 @@ namespace {
 TEST(FabricTest, CantileverGivesBackTheBendingLengthOfTheMeasurements) {
   for (const char* name : {"denim", "cotton_jersey"}) {
     SCOPED_TRACE(name);
-    const MaterialDef m = fabric::preset_material(name);
+    const MaterialDef m = lab::preset_material(name);
     const fabric::Preset& p = *fabric::find_preset(name);
-    const fabric::CantileverResult r = fabric::cantilever_test(m);
+    const lab::CantileverResult r = lab::cantilever_test(m);
     const double c = std::cbrt(fabric::bending_to_si(p.B) / (fabric::weight_to_density(p.W) * fabric::kStandardGravity));
     EXPECT_NEAR(r.predicted, c, 1e-12);
     EXPECT_NEAR(r.bending_length / c, 1.0, 0.03) << "simulated " << r.bending_length << " m";
@@ -229,11 +229,11 @@ namespace {
 // The Cusick test's shadow of a specimen that cannot fall (no gravity: as an infinitely stiff one)
 // is the whole specimen: DC = 100 %, within the rasterised area's error and the 96-gon's 0.07 %.
 TEST(FabricTest, FlatSpecimenShadowsTheWholeSpecimen) {
-  fabric::DrapeOptions o;
+  lab::DrapeOptions o;
   o.gravity = false;
   o.perturbation = 0;
   o.stepping.settle = 0.01;
-  const fabric::DrapeResult r = fabric::drape_test(fabric::preset_material("denim"), o);
+  const lab::DrapeResult r = lab::drape_test(lab::preset_material("denim"), o);
   const double polygon = 0.5 * o.sectors * o.specimen_radius * o.specimen_radius * std::sin(2 * fabric::kPi / o.sectors);
   EXPECT_NEAR(r.shadow_area / polygon, 1.0, 0.003);
   EXPECT_NEAR(r.drape_coefficient, 1.0, 0.005);
@@ -246,7 +246,7 @@ TEST(FabricTest, ShadowAreaIsTheUnionOfTheTriangles) {
   const std::vector<Vec3> x{{0, 0, 0}, {0.1f, 0, 0}, {0.1f, 0, 0.1f}, {0, 0, 0.1f},
                             {0.05f, -0.2f, 0}, {0.15f, -0.2f, 0}, {0.15f, -0.2f, 0.1f}, {0.05f, -0.2f, 0.1f}};
   const std::vector<uint32_t> tris{0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7};
-  EXPECT_NEAR(fabric::shadow_area(x, tris, 2.5e-4), 0.015, 1e-5);  // 0.1 x 0.15 m
+  EXPECT_NEAR(lab::shadow_area(x, tris, 2.5e-4), 0.015, 1e-5);  // 0.1 x 0.15 m
 }
 
 // Folds are the rim's crests: a rim r = R + a cos(k phi) has k of them; a circle none.
@@ -257,7 +257,7 @@ TEST(FabricTest, FoldsAreCountedOnTheRim) {
       const double phi = 2 * fabric::kPi * i / 96, r = 0.12 + (k ? 0.01 * std::cos(k * phi + 0.3) : 0.0);
       rim.push_back(Vec3{float(r * std::cos(phi)), -0.05f, float(r * std::sin(phi))});
     }
-    EXPECT_EQ(fabric::count_folds(rim), k);
+    EXPECT_EQ(lab::count_folds(rim), k);
   }
 }
 
@@ -265,10 +265,10 @@ TEST(FabricTest, FoldsAreCountedOnTheRim) {
 // The clamps keep the 5 cm square from narrowing near them, so the specimen is up to
 // 1 / (1 - nu^2) = 1.125 times stiffer than the free strip (nu = 1/3 for the triangle lattice).
 TEST(FabricTest, TensilePullFollowsTheMeasuredModulus) {
-  fabric::TensileOptions o;
+  lab::TensileOptions o;
   o.strains = {0.02};
   o.stepping.settle = 0.1;
-  const auto curve = fabric::tensile_test(fabric::preset_material("cotton_shirting"), o);
+  const auto curve = lab::tensile_test(lab::preset_material("cotton_shirting"), o);
   ASSERT_EQ(curve.size(), 1u);
   const double expected = fabric::emt_to_modulus(fabric::find_preset("cotton_shirting")->EMT) * 0.02;
   EXPECT_GT(curve[0].stress / expected, 0.98);

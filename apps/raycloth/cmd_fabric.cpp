@@ -13,7 +13,7 @@
 
 #include "commands.h"
 #include "fabric/kes.h"
-#include "fabric/tests.h"
+#include "lab/fabric_tests.h"
 #include "io/atomic_file.h"
 #include "raycloth/error.h"
 
@@ -60,7 +60,7 @@ Action add_fabric_command(CLI::App& app) {
   return [cmd, a] {
     if (!cmd->parsed()) return 0;
     return guarded([&] {
-      MaterialDef m = fabric::preset_material(a->fabric);
+      MaterialDef m = lab::preset_material(a->fabric);
       if (!a->kes.empty()) {
         m.fabric->W = a->kes[0], m.fabric->B = a->kes[1], m.fabric->G = a->kes[2], m.fabric->EMT = a->kes[3];
         m.density = float(fabric::weight_to_density(m.fabric->W));
@@ -69,7 +69,7 @@ Action add_fabric_command(CLI::App& app) {
           if (!(value > 0) || !std::isfinite(value))
             throw InputError("command line", std::string("--kes: ") + key, fmt::format("must be a positive measurement (got {:g})", value));
       }
-      fabric::Stepping st;
+      lab::Stepping st;
       st.integrator = a->integrator == "implicit" ? Integrator::Implicit : Integrator::Explicit;
       st.dt = a->dt;
       st.iterations = a->iterations;
@@ -83,10 +83,10 @@ Action add_fabric_command(CLI::App& app) {
       j["integrator"] = a->integrator;
       const auto t0 = std::chrono::steady_clock::now();
       if (a->test == "cantilever") {
-        fabric::CantileverOptions o;
+        lab::CantileverOptions o;
         o.stepping = st;
         o.segments = a->segments;
-        const fabric::CantileverResult r = fabric::cantilever_test(m, o);
+        const lab::CantileverResult r = lab::cantilever_test(m, o);
         if (!a->quiet)
           for (const auto& t : r.tries) std::cout << fmt::format("overhang {:.2f} cm: chord {:.2f} degrees below level\n", 100 * t.overhang, t.angle);
         std::cout << fmt::format(
@@ -104,17 +104,17 @@ Action add_fabric_command(CLI::App& app) {
         j["steps"] = r.steps;
         for (const auto& t : r.tries) j["tries"].push_back({{"overhang_cm", 100 * t.overhang}, {"angle_deg", t.angle}});
       } else if (a->test == "drape") {
-        fabric::DrapeOptions o;
+        lab::DrapeOptions o;
         o.stepping = st;
         o.sectors = a->sectors;
         o.ring_spacing = a->ring_spacing;
         o.seed = a->seed;
-        if (!a->scene.empty()) fabric::write_drape_scene(m, o, a->scene);
-        fabric::DrapeResult r;
+        if (!a->scene.empty()) lab::write_drape_scene(m, o, a->scene);
+        lab::DrapeResult r;
         double dc_sum = 0, dc_min = INFINITY, dc_max = -INFINITY, folds_sum = 0;
         for (int k = 0; k < a->repeats; ++k) {
           o.seed = a->seed + uint32_t(k);
-          r = fabric::drape_test(m, o);
+          r = lab::drape_test(m, o);
           dc_sum += r.drape_coefficient, folds_sum += r.folds;
           dc_min = std::min(dc_min, r.drape_coefficient), dc_max = std::max(dc_max, r.drape_coefficient);
           if (a->repeats > 1 && !a->quiet)
@@ -141,12 +141,12 @@ Action add_fabric_command(CLI::App& app) {
           write_text(out / "drape.obj", obj);
         }
       } else {
-        fabric::TensileOptions o;
+        lab::TensileOptions o;
         o.stepping = st;
         const double emt = m.fabric->EMT / 100.0;
         o.strains.clear();
         for (int i = 1; i <= 5; ++i) o.strains.push_back(emt * i / 5);
-        const auto curve = fabric::tensile_test(m, o);
+        const auto curve = lab::tensile_test(m, o);
         std::string csv = "strain,stress_N_per_m,stress_gf_per_cm\n";
         for (const auto& p : curve) {
           csv += fmt::format("{:.6g},{:.6g},{:.6g}\n", p.strain, p.stress, p.stress * 1e-2 / fabric::kGramForce);

@@ -1,6 +1,8 @@
 // The standard fabric tests, simulated: the cantilever bending test (ASTM D1388 / ISO 9073-7), the
 // Cusick drape test (ISO 9073-9 / BS 5058) and a uniaxial pull. Each builds a scene from a material,
 // runs the simulator to rest, and measures what the standard measures (docs/materials.md).
+// The lab sits above the simulator (it runs it); src/fabric/ below the scene only maps measurements
+// to springs.
 #pragma once
 #include <filesystem>
 #include <string>
@@ -9,7 +11,7 @@
 #include "raycloth/scene.h"
 #include "raycloth/vec3.h"
 
-namespace raycloth::fabric {
+namespace raycloth::lab {
 
 // How a test steps: the integrator, its time step (0: half the explicit step's stability limit,
 // or 2 ms implicit), sweeps per implicit step, simulated seconds to settle, and viscous damping (1/s).
@@ -109,4 +111,4 @@ std::vector<TensilePoint> tensile_test(const MaterialDef& material, const Tensil
 // The material of a preset (density and springs from its measurements), named after it.
 MaterialDef preset_material(const std::string& name);
 
-}  // namespace raycloth::fabric
+}  // namespace raycloth::lab

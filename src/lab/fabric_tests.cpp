@@ -1,4 +1,4 @@
-#include "fabric/tests.h"
+#include "lab/fabric_tests.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -16,7 +16,9 @@
 #include "raycloth/simulator.h"
 #include "sim/model.h"
 
-namespace raycloth::fabric {
+namespace raycloth::lab {
+
+using namespace fabric;
 
 namespace {
 
@@ -414,4 +416,4 @@ std::vector<TensilePoint> tensile_test(const MaterialDef& material, const Tensil
   return out;
 }
 
-}  // namespace raycloth::fabric
+}  // namespace raycloth::lab
