@@ -173,8 +173,10 @@ TEST(Fabric, MeasurementsAloneMakeAFabric) {
 
 TEST(Fabric, BadPresetsAndImpossibleMeasurementsAreRefused) {
   expect_input_error([] { parse_scene(material_scene(R"({"name": "m", "fabric": "velvet"})"), "f.json"); },
-                     "f.json: /materials/0/fabric: unknown fabric 'velvet' (expected cotton_shirting, wool_suiting, "
-                     "polyester_plain, silk_crepe, denim, cotton_jersey or linen_plain)");
+                     "f.json: /materials/0/fabric: unknown fabric 'velvet' (expected a KES-F preset, cotton_shirting, wool_suiting, "
+                     "polyester_plain, silk_crepe, denim, cotton_jersey or linen_plain, or a measured fabric, ivory_rib_knit, "
+                     "pink_ribbon_brown, white_dots_on_blk, navy_sparkle_sweat, camel_ponte_roma, gray_interlock, denim_11oz, "
+                     "white_swim_solid, tango_red_jet_set or royal_target)");
   expect_input_error([] { parse_scene(material_scene(R"({"name": "m", "fabric": "denim", "kes": {"B": -1}})"), "f.json"); },
                      "f.json: /materials/0/kes/B: must be a positive measurement (got -1)");
   expect_input_error([] { parse_scene(material_scene(R"({"name": "m", "fabric": "denim", "kes": {"W": 0}})"), "f.json"); },

@@ -59,8 +59,10 @@ TEST(FabricCli, BadFabricsAndMeasurementsExitWithStatus2) {
   Result r = fabric_cli("cantilever --fabric velvet", "velvet");
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(r.err,
-            "raycloth: error: command line: --fabric: unknown fabric 'velvet' (expected cotton_shirting, wool_suiting, "
-            "polyester_plain, silk_crepe, denim, cotton_jersey or linen_plain)\n");
+            "raycloth: error: command line: --fabric: unknown fabric 'velvet' (expected a KES-F preset, cotton_shirting, "
+            "wool_suiting, polyester_plain, silk_crepe, denim, cotton_jersey or linen_plain, or a measured fabric, "
+            "ivory_rib_knit, pink_ribbon_brown, white_dots_on_blk, navy_sparkle_sweat, camel_ponte_roma, gray_interlock, "
+            "denim_11oz, white_swim_solid, tango_red_jet_set or royal_target)\n");
   r = fabric_cli("drape --fabric denim --kes 40,-1,3,4", "kes");
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(r.err, "raycloth: error: command line: --kes: B: must be a positive measurement (got -1)\n");

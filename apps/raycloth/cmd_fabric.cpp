@@ -13,6 +13,7 @@
 
 #include "commands.h"
 #include "fabric/kes.h"
+#include "fabric/measured.h"
 #include "lab/fabric_tests.h"
 #include "io/atomic_file.h"
 #include "raycloth/error.h"
@@ -29,6 +30,10 @@ struct FabricArgs {
   uint32_t seed = 12345u;
   int repeats = 1;
   double ring_spacing = 0.006;
+  std::vector<double> angles{0, 45, 90};
+  double warp = 0;
+  bool triangles = false;
+  double edge = 0;
   bool quiet = false;
 };
 
@@ -50,6 +55,10 @@ Action add_fabric_command(CLI::App& app) {
   cmd->add_option("--iterations", a->iterations, "Implicit sweeps per step");
   cmd->add_option("--settle", a->settle, "Simulated seconds to rest (default 1 cantilever and tensile, 2 drape)");
   cmd->add_option("--segments", a->segments, "Cantilever: grid cells along the overhang (default 16, fewer where the fabric needs)");
+  cmd->add_option("--warp", a->warp, "Cantilever, measured fabrics: degrees from the strip's length to the warp (0: cut along the warp, 90: along the weft)");
+  cmd->add_option("--angles", a->angles, "Tensile, measured fabrics: degrees from the warp to the pull (default 0,45,90)")->delimiter(',');
+  cmd->add_flag("--triangles", a->triangles, "Tensile, measured fabrics: a specimen of triangles (a sewing pattern) instead of a grid");
+  cmd->add_option("--edge", a->edge, "Tensile, measured fabrics: the grid's cell or the triangles' edge, metres (default 5 mm)");
   cmd->add_option("--sectors", a->sectors, "Drape: vertices around each ring of the specimen");
   cmd->add_option("--seed", a->seed, "Drape: seed of the specimen's small vertical noise");
   cmd->add_option("--repeats", a->repeats, "Drape: specimens to test, with seeds seed, seed + 1, ...; the mean is reported (ISO 9073-9 tests three)")->check(CLI::Range(1, 100));
@@ -61,6 +70,8 @@ Action add_fabric_command(CLI::App& app) {
     if (!cmd->parsed()) return 0;
     return guarded([&] {
       MaterialDef m = lab::preset_material(a->fabric);
+      if (!a->kes.empty() && !m.fabric)
+        throw InputError("command line", "--kes", "the measured fabric '" + a->fabric + "' takes no KES-F measurements");
       if (!a->kes.empty()) {
         m.fabric->W = a->kes[0], m.fabric->B = a->kes[1], m.fabric->G = a->kes[2], m.fabric->EMT = a->kes[3];
         m.density = float(fabric::weight_to_density(m.fabric->W));
@@ -79,13 +90,16 @@ Action add_fabric_command(CLI::App& app) {
       nlohmann::json j;
       j["test"] = a->test;
       j["fabric"] = a->fabric;
-      j["kes"] = {{"W", m.fabric->W}, {"B", m.fabric->B}, {"G", m.fabric->G}, {"EMT", m.fabric->EMT}};
+      if (m.fabric) j["kes"] = {{"W", m.fabric->W}, {"B", m.fabric->B}, {"G", m.fabric->G}, {"EMT", m.fabric->EMT}};
+      if (const fabric::MeasuredFabric* f = fabric::find_measured(m.measured)) j["source"] = f->source;
       j["integrator"] = a->integrator;
       const auto t0 = std::chrono::steady_clock::now();
       if (a->test == "cantilever") {
         lab::CantileverOptions o;
         o.stepping = st;
         o.segments = a->segments;
+        o.warp = a->warp;
+        j["warp_deg"] = a->warp;
         const lab::CantileverResult r = lab::cantilever_test(m, o);
         if (!a->quiet)
           for (const auto& t : r.tries) std::cout << fmt::format("overhang {:.2f} cm: chord {:.2f} degrees below level\n", 100 * t.overhang, t.angle);
@@ -140,6 +154,25 @@ Action add_fabric_command(CLI::App& app) {
             obj += fmt::format("f {} {} {}\n", r.triangles[t] + 1, r.triangles[t + 1] + 1, r.triangles[t + 2] + 1);
           write_text(out / "drape.obj", obj);
         }
+      } else if (!m.measured.empty()) {
+        // A measured fabric: pulled along each direction, held across, against the measured model.
+        lab::DirectionalOptions o;
+        if (a->settle > 0) o.stepping.settle = a->settle;
+        o.stepping.dt = a->dt;
+        o.grid = !a->triangles;
+        o.edge = a->edge;
+        std::string csv = "angle_deg,strain,tension_N_per_m,measured_N_per_m\n";
+        for (double angle : a->angles) {
+          for (const lab::DirectionalPoint& p : lab::directional_tensile(m, angle, o)) {
+            csv += fmt::format("{:g},{:.6g},{:.6g},{:.6g}\n", p.angle, p.strain, p.tension, p.measured);
+            j["curve"].push_back({{"angle_deg", p.angle}, {"strain", p.strain}, {"tension_N_per_m", p.tension},
+                                  {"measured_N_per_m", p.measured}, {"edge_mm", 1e3 * p.edge}});
+            std::cout << fmt::format("{}: {:g} degrees from the warp, strain {:.2f} %: {:.2f} N/m (measured model {:.2f} N/m, {:+.1f} %), {} of {:.2g} mm\n",
+                                     a->fabric, p.angle, 100 * p.strain, p.tension, p.measured, 100 * (p.tension / p.measured - 1),
+                                     o.grid ? "cells" : "triangles", 1e3 * p.edge);
+          }
+        }
+        if (!out.empty()) write_text(out / "tensile.csv", csv);
       } else {
         lab::TensileOptions o;
         o.stepping = st;

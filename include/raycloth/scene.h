@@ -46,6 +46,10 @@ struct FabricDef {
 struct MaterialDef {
   std::string name;
   std::optional<FabricDef> fabric;
+  // A measured fabric by name (src/fabric/measured.h: "gray_interlock", ...): density and springs
+  // from its data, warp and weft apart (each panel says where its warp runs), the stretch springs
+  // stiffening with strain; density, stretch, shear and bend given explicitly override as above.
+  std::string measured;
   // Which of density, stretch, shear and bend were given explicitly: with a fabric, only those
   // override what the measurements give.
   bool density_set = false, stretch_set = false, shear_set = false, bend_set = false;
@@ -108,6 +112,10 @@ struct PanelDef {
   std::string mesh_file;                 // mesh: OBJ path (resolved against the scene file's folder)
   PatternDef pattern;                    // pattern
   TransformDef transform;
+  // Where a measured fabric's warp runs, degrees: a rectangle's from u towards v, a pattern's from its
+  // x axis towards its y axis, a mesh's (an OBJ) from its x axis towards -z about its y axis, each
+  // triangle taking that direction laid into its plane. Only measured fabrics are anisotropic.
+  float warp = 0;
   // Mesh and pattern panels: no vertex lighter than this share of the panel's median vertex mass
   // (the others give up the difference in proportion, the panel's mass unchanged). Slivers where a
   // short outline piece or a seam's inserted vertex meets the mesh otherwise leave vertices a

@@ -12,6 +12,8 @@
 #include <unistd.h>
 
 #include "fabric/kes.h"
+#include "fabric/measured.h"
+#include "fabric/stiffening.h"
 #include "raycloth/error.h"
 #include "raycloth/simulator.h"
 #include "sim/model.h"
@@ -56,9 +58,16 @@ Vec3 mid(Vec3 a, Vec3 b) { return (a + b) * 0.5f; }
 
 MaterialDef preset_material(const std::string& name) {
   const Preset* p = find_preset(name);
-  if (!p) throw InputError("command line", "--fabric", "unknown fabric '" + name + "' (expected " + preset_names() + ")");
   MaterialDef m;
   m.name = name;
+  if (const MeasuredFabric* f = p ? nullptr : find_measured(name)) {
+    m.measured = name;
+    m.density = float(f->data.density);
+    return m;
+  }
+  if (!p)
+    throw InputError("command line", "--fabric", "unknown fabric '" + name + "' (expected a KES-F preset, " + preset_names() +
+                                                     ", or a measured fabric, " + measured_names() + ")");
   m.fabric = FabricDef{name, p->W, p->B, p->G, p->EMT};
   m.density = float(weight_to_density(p->W));
   return m;
@@ -80,6 +89,7 @@ double cantilever_angle(const MaterialDef& material, double overhang, const Cant
   p.height = float(o.width);
   p.resolution_u = n + 2;
   p.resolution_v = 2;
+  p.warp = float(o.warp);
   p.transform.position = {float(0.5 * (n + 1) * h - h), 0.0f, 0.0f};  // the edge (u = 1) at x = 0 (near the origin: float keeps the bend springs' small shortenings)
   s.panels.push_back(p);
   for (int v = 0; v < 2; ++v) {
@@ -107,6 +117,12 @@ CantileverResult cantilever_search(const MaterialDef& material, const Cantilever
     Continuum cc = c;
     if (material.density_set) cc.density = material.density;
     r.predicted = bending_length(cc);
+  }
+  if (const MeasuredFabric* f = find_measured(material.measured)) {
+    Continuum c;
+    c.density = material.density;
+    c.bending = measured_bending(f->data, -o.warp * kPi / 180.0);  // the strip runs along u, the warp o.warp from it
+    r.predicted = bending_length(c);
   }
   // Start at the overhang the measurements predict (or 4 cm) and walk on log(angle) against
   // log(overhang): a secant, the first step with the small-deflection slope.
@@ -147,6 +163,21 @@ CantileverResult cantilever_test(const MaterialDef& material, const CantileverOp
       if (material.density_set) c.density = material.density;
       const double l = 2 * bending_length(c);
       while (o.segments > 6 && bend_stretch_ratio(c, l / o.segments, o.width) > 0.2) --o.segments;
+    }
+    if (const MeasuredFabric* f = find_measured(material.measured); f && !material.bend_set && !material.stretch_set) {
+      // The bend springs' pull against the row's whole stretch stiffness, as for KES-F fabrics.
+      const double warp = o.warp * kPi / 180.0;
+      Continuum c;
+      c.density = material.density;
+      c.bending = measured_bending(f->data, -warp);
+      const double l = 2 * bending_length(c), modulus = strain_modulus(stretch_coefficients(f->data, 0, -warp), -warp);
+      auto ratio = [&](int n) {
+        const double h = l / n;
+        return 4.0 * measured_grid(f->data, c.density, h, o.width, warp).bend_u / (modulus * o.width / h);
+      };
+      // The measured stretch moduli are 3 to 300 times below the KES-F wovens': few cells fit
+      // (docs/materials.md), down to 2.
+      while (o.segments > 2 && ratio(o.segments) > 0.2) --o.segments;
     }
   }
   CantileverResult r = cantilever_search(material, o);
@@ -331,6 +362,7 @@ void write_drape_scene(const MaterialDef& material, const DrapeOptions& o, const
   }
   nlohmann::ordered_json m = {{"name", material.name}};
   if (material.fabric && !material.fabric->preset.empty()) m["fabric"] = material.fabric->preset;
+  if (!material.measured.empty()) m["fabric"] = material.measured;
   if (material.fabric)
     m["kes"] = {{"W", material.fabric->W}, {"B", material.fabric->B}, {"G", material.fabric->G}, {"EMT", material.fabric->EMT}};
   m["damping"] = s.materials[0].damping;
@@ -412,6 +444,89 @@ std::vector<TensilePoint> tensile_test(const MaterialDef& material, const Tensil
       if (len > 0) force += double(sp.k) * (len - double(sp.rest)) * double(d.x) / len;
     }
     out.push_back({strain, force / o.width, o.edge});
+  }
+  return out;
+}
+
+// ---- Pull along a direction, held across -----------------------------------------------------------
+
+std::vector<DirectionalPoint> directional_tensile(const MaterialDef& material, double angle, const DirectionalOptions& options) {
+  const MeasuredFabric* f = find_measured(material.measured);
+  if (!f) throw InputError("command line", "--fabric", "the pull along a direction needs a measured fabric (" + measured_names() + ")");
+  std::vector<DirectionalPoint> out;
+  DirectionalOptions o = options;
+  const bool choose = o.edge <= 0;
+  if (choose) o.edge = 0.005;
+  const double half = 0.5 * o.size;
+  for (double strain : o.strains) {
+    SceneDef s;
+    s.name = "directional_tensile";
+    s.source = "tensile";
+    s.gravity = {0, 0, 0};
+    s.materials.push_back(material);
+    PanelDef p;
+    p.name = "specimen";
+    p.material = material.name;
+    p.warp = float(angle);  // the pull runs along x: the warp `angle` from it
+    if (o.grid) {
+      p.width = p.height = float(o.size);
+      p.resolution_u = p.resolution_v = int(std::lround(o.size / o.edge)) + 1;
+    } else {
+      p.shape = PanelShape::Pattern;
+      const float h = float(half);
+      p.pattern.outline = {{"bottom", {-h, -h}, std::nullopt}, {"right", {h, -h}, std::nullopt},
+                           {"top", {h, h}, std::nullopt}, {"left", {-h, h}, std::nullopt}};
+      p.pattern.edge_length = float(o.edge);
+    }
+    // A pattern is placed stretched (its rest shape is the square); a grid's rest shape is where it is
+    // placed, so it is stretched once the simulator has it.
+    if (!o.grid) p.transform.scale = {float(1 + strain), 1.0f, 1.0f};
+    s.panels.push_back(p);
+    for (const char* side : {"left", "right", "bottom", "top"}) {
+      PinDef pin;
+      pin.panel = "specimen";
+      (o.grid ? pin.edge : pin.segment) = side;
+      s.pins.push_back(pin);
+    }
+    if (choose && !o.grid)
+      while (o.edge < 0.25 * o.size && bend_share(build_cloth_model(s)) > 0.3)
+        s.panels[0].pattern.edge_length = float(o.edge *= 1.25);
+    if (choose && o.grid && !material.bend_set && !material.stretch_set) {
+      // Cells no smaller than the fabric's bending lets the stretch springs carry (MeasuredGrid::bend_fits).
+      const double warp = angle * kPi / 180.0, density = material.density_set ? material.density : f->data.density;
+      auto cell = [&] { return o.size / double(s.panels[0].resolution_u - 1); };
+      while (cell() < 0.25 * o.size && !measured_grid(f->data, density, cell(), cell(), warp).bend_fits)
+        s.panels[0].resolution_u = s.panels[0].resolution_v = s.panels[0].resolution_u - 1;
+      o.edge = cell();
+    }
+    set_stepping(s, o.stepping);
+    Simulator sim(s);
+    if (o.grid) {
+      std::vector<Vec3> x = sim.positions();
+      for (Vec3& q : x) q.x *= float(1 + strain);
+      sim.set_state(x, std::vector<Vec3>(x.size(), Vec3{0, 0, 0}));
+    }
+    settle(sim);
+    const ClothModel& m = sim.model();
+    const auto& x = sim.positions();
+    // The force across the line through the middle, off any vertex, per unstretched width.
+    const double cut = 1e-4 * o.size;
+    double force = 0;
+    for (const Spring& sp : m.springs) {
+      const bool la = x[sp.a].x < cut, lb = x[sp.b].x < cut;
+      if (la == lb) continue;
+      const uint32_t a = la ? sp.a : sp.b, b = la ? sp.b : sp.a;
+      const Vec3 d = x[b] - x[a];
+      const float len = length(d), stretch = len - sp.rest;
+      if (len > 0) force += double(stiffened(sp.k, sp.k_stiff, stretch, sp.rest) * stretch) * double(d.x) / double(len);
+    }
+    DirectionalPoint pt;
+    pt.strain = strain;
+    pt.angle = angle;
+    pt.tension = force / o.size;
+    pt.measured = measured_tension(f->data, strain, -angle * kPi / 180.0);
+    pt.edge = o.edge;
+    out.push_back(pt);
   }
   return out;
 }

@@ -36,6 +36,9 @@ struct CantileverOptions {
   // Also search with half the segments and extrapolate the bending length to fine cells (Richardson:
   // the strip's error is first order in the cell length; docs/materials.md).
   bool extrapolate = true;
+  // Where the warp runs from the strip's length, degrees (measured fabrics: 0 cuts the strip along
+  // the warp, 90 along the weft).
+  double warp = 0;
   Stepping stepping;
 };
 struct CantileverTry {
@@ -108,7 +111,32 @@ struct TensilePoint {
 };
 std::vector<TensilePoint> tensile_test(const MaterialDef& material, const TensileOptions& options = {});
 
-// The material of a preset (density and springs from its measurements), named after it.
+// ---- Pull along a direction, held across (measured fabrics): a square (a grid, or a sewing pattern
+// in triangles) whose warp runs `angle` degrees from the pull, every side clamped on the map
+// x -> ((1 + e) x, y): stretched by e along the pull and held across. At rest, the force across the
+// middle line per unstretched width against the measured model's at that strain and direction
+// (fabric::measured_tension): both sides under the same deformation.
+struct DirectionalOptions {
+  double size = 0.05;  // metres
+  // The grid's cell (or the triangles' target edge), metres; 0: 5 mm (triangles: longer, by 1.25
+  // each time, while the bend springs would hold more than 0.3 of the in-plane stiffness).
+  double edge = 0;
+  // A grid's four spring directions can follow any warp and weft; a triangle mesh's three cannot
+  // (docs/materials.md): the triangles are there to show by how much.
+  bool grid = true;
+  std::vector<double> strains{1.0 / 12.0, 1.0 / 6.0};
+  Stepping stepping{Integrator::Explicit, 0, 30, 0.2, 20.0};
+};
+struct DirectionalPoint {
+  double strain = 0, angle = 0;  // angle: degrees from the warp to the pull
+  double tension = 0;            // N/m, simulated
+  double measured = 0;           // N/m, the measured model
+  double edge = 0;               // metres, the mesh's target edge
+};
+std::vector<DirectionalPoint> directional_tensile(const MaterialDef& material, double angle, const DirectionalOptions& options = {});
+
+// The material of a preset (density and springs from its measurements), named after it: a KES-F
+// preset or a measured fabric.
 MaterialDef preset_material(const std::string& name);
 
 }  // namespace raycloth::lab

@@ -20,6 +20,7 @@
 #include "raycloth/error.h"
 #include "raycloth/scene.h"
 #include "fabric/kes.h"
+#include "fabric/measured.h"
 #include "scene/garmentcode.h"
 #include "scene/json_text.h"
 #include "scene/mesh.h"
@@ -276,10 +277,17 @@ class Reader {
     optional(j, ptr, "fabric", [&](const json& v, const std::string& p) {
       const std::string name = string(v, p);
       const fabric::Preset* preset = fabric::find_preset(name);
-      if (!preset) fail(p, "unknown fabric '" + name + "' (expected " + fabric::preset_names() + ")");
+      if (!preset && fabric::find_measured(name)) {
+        m.measured = name;
+        return;
+      }
+      if (!preset)
+        fail(p, "unknown fabric '" + name + "' (expected a KES-F preset, " + fabric::preset_names() +
+                    ", or a measured fabric, " + fabric::measured_names() + ")");
       m.fabric = FabricDef{name, preset->W, preset->B, preset->G, preset->EMT};
     });
     optional(j, ptr, "kes", [&](const json& v, const std::string& p) {
+      if (!m.measured.empty()) fail(p, "the measured fabric '" + m.measured + "' takes no KES-F measurements");
       object(v, p, {"W", "B", "G", "EMT"});
       if (!m.fabric)
         for (const char* key : {"W", "B", "G", "EMT"})
@@ -310,8 +318,9 @@ class Reader {
   // A panel is a rectangle (size and resolution), a mesh (an OBJ file) or a sewing pattern.
   PanelDef panel(const json& j, const std::string& ptr) const {
     PanelDef pd;
-    object(j, ptr, {"name", "material", "size", "resolution", "mesh", "pattern", "position", "rotation", "scale"});
+    object(j, ptr, {"name", "material", "size", "resolution", "mesh", "pattern", "position", "rotation", "scale", "warp"});
     required(j, ptr, "name", [&](const json& v, const std::string& p) { pd.name = string(v, p); });
+    optional(j, ptr, "warp", [&](const json& v, const std::string& p) { pd.warp = number_f(v, p); });
     required(j, ptr, "material", [&](const json& v, const std::string& p) { pd.material = string(v, p); });
     const bool mesh = j.contains("mesh"), pattern = j.contains("pattern");
     if (mesh && pattern) fail(ptr, "a panel is a rectangle (size, resolution), a mesh or a pattern, not both mesh and pattern");

@@ -388,6 +388,7 @@ class CudaBackend final : public Backend {
     adj_rest_ = DeviceBuffer<float>(m.adj_rest);
     adj_k_ = DeviceBuffer<float>(m.adj_k);
     adj_kd_ = DeviceBuffer<float>(m.adj_kd);
+    adj_k_stiff_ = DeviceBuffer<float>(m.adj_k_stiff);
     alias_ = DeviceBuffer<uint32_t>(m.alias);
     sew_group_ = DeviceBuffer<uint32_t>(m.sew_group);
     cloth_indices_ = DeviceBuffer<uint32_t>(m.collision_triangles);
@@ -474,6 +475,7 @@ class CudaBackend final : public Backend {
     s.model.adj_rest = adj_rest_.data();
     s.model.adj_k = adj_k_.data();
     s.model.adj_kd = adj_kd_.data();
+    s.model.adj_k_stiff = adj_k_stiff_.size() > 0 ? adj_k_stiff_.data() : nullptr;
     s.model.alias = alias_.data();
     s.model.sew_group = sew_group_.size() > 0 ? sew_group_.data() : nullptr;
     s.model.triangles = cloth_indices_.data();
@@ -532,7 +534,7 @@ class CudaBackend final : public Backend {
   float step_reach_ = 0;      // this step's: the rigid reach or the skinned bodies' bound
   int obstacle_refits_since_build_ = 0;
 
-  DeviceBuffer<float> inv_mass_, damping_, adj_rest_, adj_k_, adj_kd_;
+  DeviceBuffer<float> inv_mass_, damping_, adj_rest_, adj_k_, adj_kd_, adj_k_stiff_;
   DeviceBuffer<uint32_t> adj_offset_, adj_other_, alias_, sew_group_, cloth_indices_, tri_alias_, edges_;
   DeviceBuffer<uint8_t> tri_edge_owner_;
   // Seams closing over time and attachments (empty when the scene has none).

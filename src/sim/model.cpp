@@ -14,6 +14,7 @@
 #include "raycloth/error.h"
 #include "collide/holes.h"
 #include "fabric/kes.h"
+#include "fabric/measured.h"
 #include "scene/pattern.h"
 #include "scene/transform.h"
 
@@ -137,6 +138,7 @@ ModelView ClothModel::view() const {
   v.adj_rest = adj_rest.data();
   v.adj_k = adj_k.data();
   v.adj_kd = adj_kd.data();
+  v.adj_k_stiff = adj_k_stiff.empty() ? nullptr : adj_k_stiff.data();
   v.alias = alias.data();
   v.triangles = collision_triangles.data();
   v.tri_alias = tri_alias.data();
@@ -170,7 +172,7 @@ float ClothModel::min_mass() const {
 
 float ClothModel::max_stiffness() const {
   float k = 0;
-  for (const auto& s : springs) k = std::max(k, s.k);
+  for (const auto& s : springs) k = std::max(k, s.k + std::max(s.k_stiff, 0.0f));
   for (float a : attach_k) k = std::max(k, a);
   return k;
 }
@@ -198,6 +200,8 @@ double ClothModel::stability_limit(uint32_t* vertex) const {
 double ClothModel::stiffness_sum(uint32_t i) const {
   double k = 0;
   for (uint32_t e = adj_offset[i]; e < adj_offset[i + 1]; ++e) k += double(adj_k[e]);
+  if (!adj_k_stiff.empty())  // a stiffening spring at its stiffest, or twice that tangent at 1/6
+    for (uint32_t e = adj_offset[i]; e < adj_offset[i + 1]; ++e) k += std::max(2.0 * double(adj_k_stiff[e]), 0.0);
   if (!attach_slot.empty() && attach_slot[i] != kNoAttachment) k += double(attach_k[attach_slot[i]]);
   return k;
 }
@@ -227,6 +231,9 @@ void build_adjacency(ClothModel& model) {
   model.adj_kd.resize(e);
   if (model.sew_time > 0) model.adj_rest_start.resize(e);
   else model.adj_rest_start.clear();
+  const bool stiffens = std::any_of(model.springs.begin(), model.springs.end(), [](const Spring& sp) { return sp.k_stiff != 0; });
+  if (stiffens) model.adj_k_stiff.assign(e, 0.0f);
+  else model.adj_k_stiff.clear();
   std::vector<uint32_t> fill(model.adj_offset.begin(), model.adj_offset.end() - 1);
   for (const auto& sp : model.springs) {
     for (int side = 0; side < 2; ++side) {
@@ -236,6 +243,7 @@ void build_adjacency(ClothModel& model) {
       model.adj_rest[slot] = sp.rest;
       model.adj_k[slot] = sp.k;
       model.adj_kd[slot] = sp.damping;
+      if (stiffens) model.adj_k_stiff[slot] = sp.k_stiff;
       if (model.sew_time > 0) model.adj_rest_start[slot] = sp.rest_start;
     }
   }
@@ -554,15 +562,19 @@ ClothModel build_cloth_model(const SceneDef& s) {
     m.initial_positions.insert(m.initial_positions.end(), pm.placed.begin(), pm.placed.end());
     m.rest_positions.insert(m.rest_positions.end(), pm.rest.begin(), pm.rest.end());
     for (uint32_t i : pm.tris) m.triangles.push_back(base + i);
-    auto spring = [&](uint32_t a, uint32_t b, float k, SpringType t) {
+    auto spring = [&](uint32_t a, uint32_t b, float k, SpringType t, float k_stiff = 0.0f) {
       const float rest = length(pm.rest[b] - pm.rest[a]);
-      m.springs.push_back({base + a, base + b, rest, k, mat.spring_damping, t});
+      m.springs.push_back({base + a, base + b, rest, k, mat.spring_damping, t, 0.0f, k_stiff});
     };
     // A fabric's measurements (src/fabric/kes.h) give the density and, for each spring, a stiffness
     // from the mesh around it; the fields given explicitly keep their value.
     const std::optional<fabric::Continuum> measured =
         mat.fabric ? std::optional<fabric::Continuum>(fabric::to_continuum(*mat.fabric)) : std::nullopt;
-    const float density = measured && !mat.density_set ? float(measured->density) : mat.density;
+    // A measured fabric (src/fabric/measured.h): the same, warp and weft apart, stretch springs stiffening.
+    const fabric::MeasuredFabric* data = mat.measured.empty() ? nullptr : fabric::find_measured(mat.measured);
+    const float density = data && !mat.density_set ? float(data->data.density)
+                          : measured && !mat.density_set ? float(measured->density) : mat.density;
+    const double warp = double(pd.warp) * M_PI / 180.0;
     if (pm.grid) {
       // The paper's grid (Fig. 1): equal masses, stretch, shear and bend springs.
       const uint32_t nu = pm.nu, nv = pm.nv;
@@ -572,7 +584,7 @@ ClothModel build_cloth_model(const SceneDef& s) {
       // corner), and the springs along an edge half the width of those inside: the sheet's moduli
       // hold up to its edges.
       auto edge_share = [](uint32_t i, uint32_t n) { return i == 0 || i + 1 == n ? 0.5f : 1.0f; };
-      if (measured) {
+      if (measured || data) {
         const float cell = density * pd.width * pd.height / float((nu - 1) * (nv - 1));
         for (uint32_t v = 0; v < nv; ++v)
           for (uint32_t u = 0; u < nu; ++u) m.mass.push_back(cell * edge_share(u, nu) * edge_share(v, nv));
@@ -580,6 +592,14 @@ ClothModel build_cloth_model(const SceneDef& s) {
         m.mass.insert(m.mass.end(), pm.size(), vertex_mass);
       }
       float stretch_u = mat.stretch, stretch_v = mat.stretch, shear = mat.shear, bend_u = mat.bend, bend_v = mat.bend;
+      float shear_b = shear, stiff_u = 0, stiff_v = 0, stiff_a = 0, stiff_b = 0;  // measured fabrics apart
+      if (data) {
+        const double hx = length(pm.rest[at(1, 0)] - pm.rest[at(0, 0)]), hy = length(pm.rest[at(0, 1)] - pm.rest[at(0, 0)]);
+        const fabric::MeasuredGrid g = fabric::measured_grid(data->data, density, hx, hy, warp);
+        if (!mat.stretch_set) stretch_u = float(g.stretch_u), stretch_v = float(g.stretch_v), stiff_u = float(g.stiff_u), stiff_v = float(g.stiff_v);
+        if (!mat.shear_set) shear = float(g.diag_a), shear_b = float(g.diag_b), stiff_a = float(g.stiff_a), stiff_b = float(g.stiff_b);
+        if (!mat.bend_set) bend_u = float(g.bend_u), bend_v = float(g.bend_v);
+      }
       if (measured) {
         const double hx = length(pm.rest[at(1, 0)] - pm.rest[at(0, 0)]), hy = length(pm.rest[at(0, 1)] - pm.rest[at(0, 0)]);
         fabric::Continuum c = *measured;
@@ -592,13 +612,13 @@ ClothModel build_cloth_model(const SceneDef& s) {
       for (uint32_t v = 0; v < nv; ++v)
         for (uint32_t u = 0; u < nu; ++u) {
           // Explicit stiffnesses are each spring's, as given; computed ones follow the width they carry.
-          const bool ms = measured && !mat.stretch_set, mb = measured && !mat.bend_set;
+          const bool ms = (measured || data) && !mat.stretch_set, mb = (measured || data) && !mat.bend_set;
           const float row = edge_share(v, nv), column = edge_share(u, nu);
-          if (u + 1 < nu) spring(at(u, v), at(u + 1, v), ms ? stretch_u * row : stretch_u, SpringType::Stretch);
-          if (v + 1 < nv) spring(at(u, v), at(u, v + 1), ms ? stretch_v * column : stretch_v, SpringType::Stretch);
+          if (u + 1 < nu) spring(at(u, v), at(u + 1, v), ms ? stretch_u * row : stretch_u, SpringType::Stretch, stiff_u * row);
+          if (v + 1 < nv) spring(at(u, v), at(u, v + 1), ms ? stretch_v * column : stretch_v, SpringType::Stretch, stiff_v * column);
           if (u + 1 < nu && v + 1 < nv) {
-            spring(at(u, v), at(u + 1, v + 1), shear, SpringType::Shear);
-            spring(at(u + 1, v), at(u, v + 1), shear, SpringType::Shear);
+            spring(at(u, v), at(u + 1, v + 1), shear, SpringType::Shear, stiff_a);
+            spring(at(u + 1, v), at(u, v + 1), shear_b, SpringType::Shear, stiff_b);
           }
           if (u + 2 < nu) spring(at(u, v), at(u + 2, v), mb ? bend_u * row : bend_u, SpringType::Bend);
           if (v + 2 < nv) spring(at(u, v), at(u, v + 2), mb ? bend_v * column : bend_v, SpringType::Bend);
@@ -645,28 +665,38 @@ ClothModel build_cloth_model(const SceneDef& s) {
         uint32_t a, b;
         double k;
         SpringType type;
+        double k_stiff = 0;
       };
+      // A measured fabric's stretch springs, fitted triangle by triangle to its warp and weft.
+      const Vec3 warp_dir = pd.shape == PanelShape::Mesh ? make_vec3(float(std::cos(warp)), 0.0f, float(-std::sin(warp)))
+                                                         : make_vec3(float(std::cos(warp)), float(std::sin(warp)), 0.0f);
+      std::map<std::pair<uint32_t, uint32_t>, std::array<double, 2>> data_stretch;
+      if (data && !mat.stretch_set) data_stretch = fabric::measured_mesh_stretch(data->data, pm.rest, pm.tris, warp_dir);
       std::vector<Planned> planned;
       double stretch_trace = 0, bend_trace = 0;  // sum of k l^2 over each kind: their in-plane stiffness
       for (const auto& [e, opp] : opposite) {
         const double area = edge_area[e];
         const double l = length(pm.rest[e.second] - pm.rest[e.first]);
-        const double ks = measured && !mat.stretch_set ? fabric::edge_stretch(c, area, l) : double(mat.stretch);
-        planned.push_back({e.first, e.second, ks, SpringType::Stretch});
+        const double ks = data && !mat.stretch_set       ? data_stretch[e][0]
+                          : measured && !mat.stretch_set ? fabric::edge_stretch(c, area, l) : double(mat.stretch);
+        planned.push_back({e.first, e.second, ks, SpringType::Stretch, data && !mat.stretch_set ? data_stretch[e][1] : 0.0});
         stretch_trace += ks * l * l;
         if (opp.size() == 2 && opp[0] != opp[1]) {
           const double lb = length(pm.rest[opp[1]] - pm.rest[opp[0]]);
-          const double kb = measured && !mat.bend_set ? fabric::hinge_bend(c, area, lb) : double(mat.bend);
+          const Vec3 across = pm.rest[opp[1]] - pm.rest[opp[0]], hinge = pm.rest[e.second] - pm.rest[e.first];
+          const double kb = data && !mat.bend_set ? fabric::measured_hinge_bend(data->data, density, area, lb,
+                                                                                fabric::angle_from_warp(across, cross(hinge, across), warp_dir))
+                            : measured && !mat.bend_set ? fabric::hinge_bend(c, area, lb) : double(mat.bend);
           planned.push_back({opp[0], opp[1], kb, SpringType::Bend});
           bend_trace += kb * lb * lb;
         }
       }
       // Stretched, the bend springs pull too: the stretch springs give up that share of the sheet's
       // in-plane stiffness (at most half: a mesh so fine that they pull more is stiffer than measured).
-      const double give = measured && !mat.stretch_set && !mat.bend_set && stretch_trace > 0
+      const double give = (measured || data) && !mat.stretch_set && !mat.bend_set && stretch_trace > 0
                               ? std::min(bend_trace / stretch_trace, 0.5) : 0.0;
       for (const Planned& sp : planned)
-        spring(sp.a, sp.b, float(sp.type == SpringType::Stretch ? sp.k * (1.0 - give) : sp.k), sp.type);
+        spring(sp.a, sp.b, float(sp.type == SpringType::Stretch ? sp.k * (1.0 - give) : sp.k), sp.type, float(sp.k_stiff * (1.0 - give)));
     }
     for (uint32_t i = 0; i < pm.size(); ++i) {
       m.inv_mass.push_back(1.0f / m.mass[base + i]);

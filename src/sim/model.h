@@ -21,6 +21,7 @@ struct Spring {
   float rest, k, damping;
   SpringType type;
   float rest_start = 0;  // length in the placed start state (used while seams close)
+  float k_stiff = 0;     // a measured fabric's stretch spring: stiffness added at strain 1/6 (fabric/stiffening.h)
 };
 
 struct Piece {
@@ -41,6 +42,7 @@ struct ModelView {
   const float* adj_rest = nullptr;
   const float* adj_k = nullptr;
   const float* adj_kd = nullptr;
+  const float* adj_k_stiff = nullptr;  // null unless a measured fabric's springs stiffen (Spring::k_stiff)
   const uint32_t* alias = nullptr;       // vertices joined by a seam share one alias
   // Null unless seams are sewn from apart: per vertex the smallest vertex joined to it by welds and
   // stitches. Features of one group are neighbours (sew_neighbours): the contact, the bound and the
@@ -88,6 +90,7 @@ struct ClothModel {
   std::array<size_t, 4> spring_counts{};  // by SpringType
   std::vector<uint32_t> adj_offset, adj_other;
   std::vector<float> adj_rest, adj_k, adj_kd, adj_rest_start;
+  std::vector<float> adj_k_stiff;  // empty unless some spring stiffens
   std::vector<uint32_t> alias;
   // Seams sewn from apart: 2 vertices per stitch (each also a Seam spring of rest length 0), and the
   // scene seam each belongs to. Welded seams have none (their pairs share an alias).

@@ -3,6 +3,7 @@
 #pragma once
 #include <cstdint>
 
+#include "fabric/stiffening.h"
 #include "raycloth/hd.h"
 #include "raycloth/vec3.h"
 #include "sim/model.h"
@@ -32,7 +33,9 @@ RC_HD Vec3 spring_force(const ModelView& m, const Vec3* x, const Vec3* v, uint32
       const Vec3 dir = d / len;
       float rest = m.adj_rest[e];
       if (m.adj_rest_start && sew < 1.0f) rest += (m.adj_rest_start[e] - rest) * (1.0f - sew);
-      float mag = m.adj_k[e] * spring_stretch(len, rest, m.adj_rest[e]);
+      const float stretch = spring_stretch(len, rest, m.adj_rest[e]);
+      const float k = m.adj_k_stiff ? fabric::stiffened(m.adj_k[e], m.adj_k_stiff[e], stretch, rest) : m.adj_k[e];
+      float mag = k * stretch;
       if (m.adj_kd[e] != 0.0f) mag += m.adj_kd[e] * dot(v[j] - vi, dir);
       f += dir * mag;
     }
@@ -108,13 +111,18 @@ RC_HD Vec3 vbd_vertex(const ModelView& m, const Vec3* x, const Vec3* xn, uint32_
     const Vec3 dir = d / len;
     float rest = m.adj_rest[e];
     if (m.adj_rest_start && sew < 1.0f) rest += (m.adj_rest_start[e] - rest) * (1.0f - sew);
+    const float stretch = spring_stretch(len, rest, m.adj_rest[e]);
     const float k = m.adj_k[e], kd = m.adj_kd[e];
-    float mag = k * spring_stretch(len, rest, m.adj_rest[e]);
+    // A stiffening spring (fabric/stiffening.h): its secant across, its tangent along.
+    const float ks = m.adj_k_stiff ? fabric::stiffened(k, m.adj_k_stiff[e], stretch, rest) : k;
+    float mag = ks * stretch;
     if (kd != 0.0f) mag += kd * dot((xn[j] - x[j]) / dt - vi, dir);
     g -= dir * mag;
     const float transverse = len > rest ? 1.0f - rest / len : 0.0f;
-    add_identity(h, k * transverse);
-    add_outer(h, dir, k * (1.0f - transverse) + kd / dt);
+    add_identity(h, ks * transverse);
+    const float along = m.adj_k_stiff ? fabric::stiffened_tangent(k, m.adj_k_stiff[e], stretch, rest) - ks * transverse
+                                      : k * (1.0f - transverse);
+    add_outer(h, dir, along + kd / dt);
   }
   if (ka != 0.0f || kad != 0.0f) {
     g -= (attach_target - xi) * ka + (attach_velocity - vi) * kad;
