@@ -205,14 +205,14 @@ TEST(MeasuredFabric, BadNamesAndMalformedFilesAreRefused) {
                      "ivory_rib_knit, pink_ribbon_brown, white_dots_on_blk, navy_sparkle_sweat, camel_ponte_roma, gray_interlock, "
                      "denim_11oz, white_swim_solid, tango_red_jet_set or royal_target)");
   expect_input_error([] { parse_scene(scene_with(R"({"name": "m", "fabric": 3})"), "f.json"); },
-                     "f.json: /materials/0/fabric: must be a string");
+                     "f.json: /materials/0/fabric: expected a string, got number");
   expect_input_error([] { parse_scene(scene_with(R"({"name": "m", "fabric": "gray_interlock", "kes": {"B": 1}})"), "f.json"); },
                      "f.json: /materials/0/kes: the measured fabric 'gray_interlock' takes no KES-F measurements");
   const std::string bend = R"("bending": [[1,1,1,1,1],[1,1,1,1,1],[1,1,1,1,1]])";
   const std::string rows = R"([[1,2,3,4],[1,2,3,4],[1,2,3,4],[1,2,3,4],[1,2,3,4],[1,2,3,4]])";
   auto parse = [](const std::string& text) { fabric::parse_measured(text, "m.json"); };
   EXPECT_NO_THROW(parse(R"({"density": 0.2, "stretching": )" + rows + ", " + bend + "}"));
-  expect_input_error([&] { parse("{\"density\": 0.2,\n \"stretching\": [1,, 2]}"); }, "m.json: not JSON (line 2, column 18)");
+  expect_input_error([&] { parse("{\"density\": 0.2,\n \"stretching\": [1,, 2]}"); }, "m.json: not JSON (line 2, column 19)");
   expect_input_error([&] { parse("[1, 2]"); }, "m.json: must be a JSON object with density, stretching and bending");
   expect_input_error([&] { parse(R"({"density": 0.2, )" + bend + "}"); }, "m.json: /stretching: missing required field");
   expect_input_error([&] { parse(R"({"density": 0.2, "stretch": 1, "stretching": )" + rows + ", " + bend + "}"); },

@@ -97,27 +97,27 @@ bool least_squares(const std::vector<std::vector<double>>& a, const std::vector<
 // the rest are fitted again with them fixed (least squares), until none is below. The floor keeps
 // every family a spring: a grid cell without its springs along one side is a mechanism.
 bool fit_non_negative(const std::vector<std::vector<double>>& a, const std::vector<double>& b, std::vector<double>& x, int& clamped,
-                      double floor) {
+                      const std::vector<double>& floor) {
   const size_t n = x.size();
   std::vector<bool> fixed(n, false);
   for (size_t round = 0; round <= n; ++round) {
     std::vector<size_t> free;
     for (size_t i = 0; i < n; ++i)
       if (!fixed[i]) free.push_back(i);
-    std::fill(x.begin(), x.end(), floor);
+    x = floor;
     if (free.empty()) return true;
     std::vector<std::vector<double>> af(a.size(), std::vector<double>(free.size()));
     std::vector<double> bf = b;
     for (size_t r = 0; r < a.size(); ++r) {
       for (size_t k = 0; k < free.size(); ++k) af[r][k] = a[r][free[k]];
       for (size_t i = 0; i < n; ++i)
-        if (fixed[i]) bf[r] -= a[r][i] * floor;
+        if (fixed[i]) bf[r] -= a[r][i] * floor[i];
     }
     std::vector<double> xf(free.size());
     if (!least_squares(af, bf, xf)) return false;
     bool negative = false;
     for (size_t k = 0; k < free.size(); ++k) {
-      if (xf[k] < floor) fixed[free[k]] = true, negative = true, ++clamped;
+      if (xf[k] < floor[free[k]]) fixed[free[k]] = true, negative = true, ++clamped;
       else x[free[k]] = xf[k];
     }
     if (!negative) return true;
@@ -252,7 +252,7 @@ FamilyFit fit_families(const MeasuredData& d, const std::vector<double>& familie
     b[j] = strain_modulus(stretch_coefficients(d, 0.0, pulls[j]), pulls[j]);
   }
   // The floor: 2 % of the stiffest direction's modulus.
-  const double floor = 0.02 * *std::max_element(b.begin(), b.end());
+  const std::vector<double> floor(n, 0.02 * *std::max_element(b.begin(), b.end()));
   if (!fit_non_negative(a, b, fit.small, fit.clamped, floor)) return fit;
   // At kMeasuredStrain along each pull (held across: F = I + e m m^T), a family's springs stretch
   // to lambda = |F n| and pull with rho (s + (rho_stiff / rho - 1) s w) per rho, w = min(s / e, 1),
@@ -273,7 +273,11 @@ FamilyFit fit_families(const MeasuredData& d, const std::vector<double>& familie
     }
     b[j] = measured_tension(d, e, pulls[j]) - linear;
   }
-  if (!fit_non_negative(a, b, fit.stiff, fit.clamped, floor)) return fit;
+  // A spring may soften with strain, but to no less than half its stiffness at no strain: below
+  // that its force would fall as it stretches (a negative tangent, where the sheet tears apart).
+  std::vector<double> stiff_floor(n);
+  for (size_t f = 0; f < n; ++f) stiff_floor[f] = std::max(floor[f], 0.5 * fit.small[f]);
+  if (!fit_non_negative(a, b, fit.stiff, fit.clamped, stiff_floor)) return fit;
   fit.solved = true;
   return fit;
 }

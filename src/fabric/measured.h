@@ -75,7 +75,9 @@ double measured_bending(const MeasuredData& d, double angle, int column = 0);
 // `pulls` (radians from the warp, as many as families, at most 4) as the measured model does, at no
 // strain (the moduli C) and at kMeasuredStrain (the tensions). A family that would need less than
 // 2 % of the stiffest direction's modulus (or a negative one) gets that floor (`clamped` counts
-// them) and the others are fitted with it fixed.
+// them) and the others are fitted with it fixed; at kMeasuredStrain likewise, the floor there at
+// least half the family's stiffness at no strain (a spring whose force fell as it stretched would
+// tear the sheet apart).
 struct FamilyFit {
   std::vector<double> small, stiff;  // rho at no strain and at kMeasuredStrain, N/m
   int clamped = 0;

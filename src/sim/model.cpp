@@ -592,7 +592,8 @@ ClothModel build_cloth_model(const SceneDef& s) {
         m.mass.insert(m.mass.end(), pm.size(), vertex_mass);
       }
       float stretch_u = mat.stretch, stretch_v = mat.stretch, shear = mat.shear, bend_u = mat.bend, bend_v = mat.bend;
-      float shear_b = shear, stiff_u = 0, stiff_v = 0, stiff_a = 0, stiff_b = 0;  // measured fabrics apart
+      std::optional<float> shear_b;  // measured fabrics: the other diagonal apart
+      float stiff_u = 0, stiff_v = 0, stiff_a = 0, stiff_b = 0;
       if (data) {
         const double hx = length(pm.rest[at(1, 0)] - pm.rest[at(0, 0)]), hy = length(pm.rest[at(0, 1)] - pm.rest[at(0, 0)]);
         const fabric::MeasuredGrid g = fabric::measured_grid(data->data, density, hx, hy, warp);
@@ -618,7 +619,7 @@ ClothModel build_cloth_model(const SceneDef& s) {
           if (v + 1 < nv) spring(at(u, v), at(u, v + 1), ms ? stretch_v * column : stretch_v, SpringType::Stretch, stiff_v * column);
           if (u + 1 < nu && v + 1 < nv) {
             spring(at(u, v), at(u + 1, v + 1), shear, SpringType::Shear, stiff_a);
-            spring(at(u + 1, v), at(u, v + 1), shear_b, SpringType::Shear, stiff_b);
+            spring(at(u + 1, v), at(u, v + 1), shear_b.value_or(shear), SpringType::Shear, stiff_b);
           }
           if (u + 2 < nu) spring(at(u, v), at(u + 2, v), mb ? bend_u * row : bend_u, SpringType::Bend);
           if (v + 2 < nv) spring(at(u, v), at(u, v + 2), mb ? bend_v * column : bend_v, SpringType::Bend);
