@@ -191,23 +191,18 @@ nlohmann::json report_json(const RunReport& r, Simulator& sim) {
   }
   j["frames"] = frames;
   if (!m.stitches.empty()) j["seams"] = seams_json(r, sim);
-  j["contact"] = {{"pushed_by_obstacles", sim.pushed_total()},
-                  {"clamped_by_bound", sim.clamped_total()},
-                  {"obstacle_conflicts", sim.conflicts_total()},
-                  {"push_shortened_by_bound", sim.push_clamped_total()},
-                  {"bound_refreshes", sim.bound_refreshes()},
-                  {"bound_partial_refreshes", sim.bound_partial_refreshes()},
-                  {"cloth_contact_pairs", sim.contact_pairs()},
-                  {"moved_by_contact_solve", sim.contact_moved()},
-                  {"contact_solve_rounds", sim.contact_rounds()},
-                  {"bound_passes", sim.bound_passes()}};
+  // The run's totals (raycloth/totals.h), each in its section; the integrator's follow.
+  j["contact"] = nlohmann::json::object();
+  for_each_total(sim.totals(), [&](const char* name, const char* section, uint64_t value) {
+    if (std::string(section) == "contact") j["contact"][name] = value;
+  });
   // The integrator, and for the implicit one its convergence: the sweeps per step, the tolerance on
   // the last sweep's largest step, the steps (substeps) that did not reach it and the largest such step.
   const TimeDef& td = sim.scene().time;
   if (td.integrator == Integrator::Implicit)
     j["integrator"] = {{"name", "implicit"},           {"method", "implicit Euler, vertex block descent"},
                        {"iterations", td.iterations},  {"tolerance", td.tolerance},
-                       {"unconverged_steps", sim.unconverged_steps()}, {"max_residual", sim.max_residual()},
+                       {"unconverged_steps", sim.totals().unconverged}, {"max_residual", sim.totals().max_residual},
                        // Where a body moves, each step is done in substeps (Simulator::substeps).
                        {"substeps", sim.substeps()}};
   else
@@ -398,10 +393,10 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
     rec.time = sim.time();
     rec.step = sim.steps();
     rec.hits = sim.last_hits();
-    rec.clamped = sim.clamped_total() - clamped_seen;
-    rec.pushed = sim.pushed_total() - pushed_seen;
-    clamped_seen = sim.clamped_total();
-    pushed_seen = sim.pushed_total();
+    rec.clamped = sim.totals().clamped - clamped_seen;
+    rec.pushed = sim.totals().pushed - pushed_seen;
+    clamped_seen = sim.totals().clamped;
+    pushed_seen = sim.totals().pushed;
     rec.kinetic_energy = kinetic_energy(sim.model(), sim.velocities());
     rec.seam_gap = largest_stitch_gap(sim.model(), sim.positions());
     if (opt.check) {
@@ -440,7 +435,7 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
     report.steps = sim.steps();
     report.simulated_time = sim.time();
     report.stages = sim.stage_times();
-    report.bound_refreshes = sim.bound_refreshes();
+    report.bound_refreshes = sim.totals().refreshes;
     report.steps_per_second = report.wall_time > 0 ? double(report.steps) / report.wall_time : 0.0;
     const nlohmann::json j = report_json(report, sim);
     write_file_atomically(opt.out_dir / "run.json", [&](std::ostream& out) { out << j.dump(2) << "\n"; });
@@ -450,10 +445,10 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
   };
   // The implicit integrator says so when its sweeps did not converge (once, at the end).
   auto warn_unconverged = [&] {
-    if (scene.time.integrator != Integrator::Implicit || sim.unconverged_steps() == 0) return;
+    if (scene.time.integrator != Integrator::Implicit || sim.totals().unconverged == 0) return;
     spdlog::warn("the implicit integrator did not converge in {} of {} steps: its last sweep still moved a vertex up to "
                  "{:.3g} m (time.tolerance {:g} m); raise time.iterations or lower time.dt",
-                 sim.unconverged_steps(), sim.steps(), sim.max_residual(), scene.time.tolerance);
+                 sim.totals().unconverged, sim.steps(), sim.totals().max_residual, scene.time.tolerance);
   };
 
   // After frame `done`: the state, the report so far and the sinks' own state.
@@ -500,8 +495,8 @@ RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
       s->resume(sim, opt.out_dir, sr);
     }
     if (!in.at_end()) in.fail("is truncated or damaged; start the run again without --resume");
-    clamped_seen = sim.clamped_total();
-    pushed_seen = sim.pushed_total();
+    clamped_seen = sim.totals().clamped;
+    pushed_seen = sim.totals().pushed;
     first_frame = int(done) + 1;
     if (!opt.quiet) spdlog::info("resuming at frame {} of {} (step {})", done, num_frames, sim.steps());
   } else {
