@@ -44,17 +44,6 @@ std::string num_list(const std::array<T, N>& a) {
   return s + "]";
 }
 
-// A key as a JSON pointer token (RFC 6901): '~' -> "~0", '/' -> "~1".
-std::string pointer_token(std::string_view key) {
-  std::string s;
-  for (char c : key) {
-    if (c == '~') s += "~0";
-    else if (c == '/') s += "~1";
-    else s += c;
-  }
-  return s;
-}
-
 // The most cloth vertices (all panels) and UV-sphere vertices a scene may ask for.
 constexpr int64_t kMaxVertices = int64_t(1) << 22;
 
@@ -126,7 +115,7 @@ class Reader {
     for (const auto& [key, value] : j.items()) {
       bool known = false;
       for (auto a : allowed) known = known || key == a;
-      if (!known) fail(ptr + "/" + pointer_token(key), "unknown field '" + key + "'");
+      if (!known) fail(ptr + "/" + json_pointer_token(key), "unknown field '" + key + "'");
     }
   }
 
@@ -413,7 +402,7 @@ class Reader {
     optional(j, ptr, "panels", [&](const json& v, const std::string& p) {
       if (!v.is_object()) fail(p, std::string("expected an object of panel options by name, got ") + v.type_name());
       for (const auto& [name, pv] : v.items()) {
-        const std::string q = p + "/" + pointer_token(name);
+        const std::string q = p + "/" + json_pointer_token(name);
         GarmentCodePanelOptions po;
         object(pv, q, {"material", "edge_length", "offset"});
         optional(pv, q, "material", [&](const json& w, const std::string& r) { po.material = string(w, r); });
@@ -426,7 +415,7 @@ class Reader {
     for (const auto& [name, po] : o.panels) {
       bool known = false;
       for (const auto& n : g.file_panel_names) known = known || n == name;
-      if (!known) fail(ptr + "/panels/" + pointer_token(name), "no panel '" + name + "' in '" + file + "'");
+      if (!known) fail(ptr + "/panels/" + json_pointer_token(name), "no panel '" + name + "' in '" + file + "'");
     }
     if (!fit.body.empty()) {
       fit.field = ptr;
@@ -635,7 +624,7 @@ class PointerTracker {
   // The pointer of the value the parser is in now.
   std::string pointer() const {
     std::string p;
-    for (const Frame& f : frames_) p += "/" + (f.array ? std::to_string(f.index) : escape(f.key));
+    for (const Frame& f : frames_) p += "/" + (f.array ? std::to_string(f.index) : json_pointer_token(f.key));
     return p;
   }
 
@@ -647,11 +636,6 @@ class PointerTracker {
   };
   void value_done() {
     if (!frames_.empty() && frames_.back().array) ++frames_.back().index;
-  }
-  static std::string escape(const std::string& key) {
-    std::string out;
-    for (char c : key) out += c == '~' ? "~0" : c == '/' ? "~1" : std::string(1, c);
-    return out;
   }
   std::vector<Frame> frames_;
 };
