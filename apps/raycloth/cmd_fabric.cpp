@@ -12,6 +12,7 @@
 #include <memory>
 
 #include "commands.h"
+#include "common.h"
 #include "fabric/kes.h"
 #include "fabric/tests.h"
 #include "io/atomic_file.h"
