@@ -35,16 +35,16 @@ struct Trajectory {
     }
   }
 
-  // The paper's velocity ray from every free vertex, as stage_velocity_ray builds it.
+  // The paper's velocity ray from every free vertex, as finish_integrate builds it.
   std::vector<Ray> rays(int step) const {
     CollisionParams p;
     p.tolerance = scene.collision.tolerance;
     p.thickness = scene.collision.thickness;
-    p.dt = float(scene.time.dt);
+    const float dt = float(scene.time.dt);
     std::vector<Ray> r;
     for (uint32_t i = 0; i < model.num_vertices(); ++i) {
       const Vec3 xi = x.at(step)[i];
-      const Ray ray = velocity_ray(xi, xi + v.at(step)[i] * p.dt, model.alias[i], p);
+      const Ray ray = velocity_ray(xi, xi + v.at(step)[i] * dt, model.alias[i], p);
       if (model.inv_mass[i] != 0.0f && ray.tmax > 0.0f) r.push_back(ray);
     }
     return r;

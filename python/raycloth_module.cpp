@@ -433,14 +433,8 @@ vertices_inside, vertices_pinched, min_pinch_gap, pairs_tested, vertices_tested,
             const Simulator& s = *p.sim;
             py::dict d;
             d["hits"] = s.last_hits();
-            d["pushed_by_obstacles"] = s.pushed_total();
-            d["clamped_by_bound"] = s.clamped_total();
-            d["obstacle_conflicts"] = s.conflicts_total();
-            d["bound_refreshes"] = s.bound_refreshes();
-            d["cloth_contact_pairs"] = s.contact_pairs();
-            d["moved_by_contact_solve"] = s.contact_moved();
-            d["unconverged_steps"] = s.unconverged_steps();
-            d["max_residual"] = s.max_residual();
+            for_each_total(s.totals(), [&](const char* name, const char*, uint64_t value) { d[name] = value; });
+            d["max_residual"] = s.totals().max_residual;
             const StageTimes& t = s.stage_times();
             d["stage_seconds"] = py::dict(py::arg("integrate") = t.integrate, py::arg("update") = t.update,
                                           py::arg("cast") = t.cast, py::arg("respond") = t.respond,
@@ -449,7 +443,8 @@ vertices_inside, vertices_pinched, min_pinch_gap, pairs_tested, vertices_tested,
           },
           R"(The step's counters so far, as run.json's "contact" names them: hits (cloth vertices with an
 entry in the collision buffer in the last step), pushed_by_obstacles, clamped_by_bound,
-obstacle_conflicts, bound_refreshes, cloth_contact_pairs, moved_by_contact_solve (sums over all
+obstacle_conflicts, push_shortened_by_bound, bound_refreshes, bound_partial_refreshes,
+cloth_contact_pairs, moved_by_contact_solve, contact_solve_rounds, bound_passes (sums over all
 steps), unconverged_steps and max_residual (the implicit integrator), and stage_seconds (wall-clock
 seconds per stage).)")
       .def("__repr__", [](PySimulator& p) {

@@ -2,7 +2,8 @@
 # Same behaviour before and after a change that should not alter results (a restructuring):
 #   scripts/same_behaviour.sh REF_CLI NEW_CLI [OUT_DIR] [DURATION]
 # runs the built-in default scene with both command lines and compares every frame file byte for
-# byte, then runs each shipped scene (scenes/*.json) for DURATION simulated seconds (default 0.1)
+# byte, then runs each shipped scene (scenes/*.json, and the implicit integrator's bench/*_implicit.json)
+# for DURATION simulated seconds (default 0.1)
 # with both and compares every frame file byte for byte and run.json's "check" section.
 # Exits 1 on the first difference, naming the scene and the file.
 set -euo pipefail
@@ -30,7 +31,7 @@ EOF
 "$new" run --quiet --out "$out/default_new" >/dev/null
 compare default "$out/default_ref" "$out/default_new"
 
-for scene in scenes/*.json; do
+for scene in scenes/*.json bench/*_implicit.json; do
   name=$(basename "$scene" .json)
   "$ref" run "$scene" --quiet --duration "$dur" --out "$out/${name}_ref" >/dev/null
   "$new" run "$scene" --quiet --duration "$dur" --out "$out/${name}_new" >/dev/null

@@ -155,7 +155,7 @@ TEST(Bound, InvariantHoldsAfterEveryStepOfAFoldingDrop) {
   size_t pairs = 0;
   ASSERT_EQ(step_with_invariant(sim, 600, &pairs), "");
   EXPECT_GT(pairs, 0u);
-  EXPECT_GT(sim.bound_refreshes(), 0u);
+  EXPECT_GT(sim.totals().refreshes, 0u);
   const CheckReport r = test::exact_check(sim);
   EXPECT_TRUE(r.clean()) << describe(r);
 }

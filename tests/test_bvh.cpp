@@ -148,7 +148,6 @@ std::vector<Ray> cloth_rays(const ClothModel& m, const std::vector<Vec3>& x, con
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> len(0.002f, length_scale);
   CollisionParams p;
-  p.dt = dt;
   std::vector<Ray> rays;
   for (uint32_t i = 0; i < m.num_vertices(); ++i) {
     if (m.inv_mass[i] == 0.0f) continue;

@@ -228,7 +228,7 @@ TEST(Collision, UprightAndTiltedPanelsHangAndSwing) {
       ke += 0.5 * sim.model().mass[i] * length_sq(sim.velocities()[i]);
     EXPECT_GT(ke, 0.01) << "rotation " << rotation[0] << ", " << rotation[1];
     EXPECT_GT(length(sim.positions()[sim.model().num_vertices() - 1] - corner), 0.05f);
-    EXPECT_EQ(sim.clamped_total(), 0u) << "a lone panel has nothing near enough to bound its moves";
+    EXPECT_EQ(sim.totals().clamped, 0u) << "a lone panel has nothing near enough to bound its moves";
   }
 }
 
@@ -245,7 +245,7 @@ TEST(Collision, SphereMovingThroughCurtainPushesIt) {
     Simulator sim(s);
     const int steps = int(1.0f / speed / 0.0004f);
     ASSERT_EQ(step_checked(sim, steps), "") << "speed " << speed;
-    EXPECT_GT(sim.pushed_total(), 100u) << "the sphere never reached the curtain";
+    EXPECT_GT(sim.totals().pushed, 100u) << "the sphere never reached the curtain";
   }
 }
 

@@ -166,7 +166,7 @@ SceneDef layered_box_scene(int sheets, Float3 velocity, Float3 spin) {
 TEST(ContactSolve, BoxSlidingAndTurningUnderTwoSheetsStaysOutOfThem) {
   Simulator sim(layered_box_scene(2, {0.6f, 0, 0}, {0, 60, 0}));
   EXPECT_EQ(step_checked(sim, 1500, 10), "");
-  EXPECT_GT(sim.contact_pairs(), 0u);
+  EXPECT_GT(sim.totals().contact_pairs, 0u);
 }
 
 TEST(ContactSolve, BoxSlidingUnderThreeSheetsStaysOutOfThem) {
@@ -207,7 +207,7 @@ SceneDef curtain_scene() {
 TEST(ContactSolve, FastSphereThroughThreeHangingLayersStaysOutOfThem) {
   Simulator sim(curtain_scene());
   EXPECT_EQ(step_checked(sim, 1000, 4), "");
-  EXPECT_EQ(sim.conflicts_total(), 0u);
+  EXPECT_EQ(sim.totals().conflicts, 0u);
 }
 
 // A squeeze: the lined tube skirt on the walking man at 1.2x (tests/scenes/contact/
@@ -259,8 +259,8 @@ TEST(ContactSolve, EdgesCrossingCloseWithEveryVertexFarFromCloth) {
   s.obstacles.push_back(box);
   Simulator sim(s);
   EXPECT_EQ(step_checked(sim, 100, 1), "");
-  EXPECT_GT(sim.contact_pairs(), 0u);
-  EXPECT_EQ(sim.conflicts_total(), 0u);
+  EXPECT_GT(sim.totals().contact_pairs, 0u);
+  EXPECT_EQ(sim.totals().conflicts, 0u);
 }
 
 // The same scenes with the implicit integrator at 1/120 s (the sphere moves 17 mm per step, twice the
@@ -276,7 +276,7 @@ SceneDef implicit_at(SceneDef s, double dt) {
 TEST(ContactSolveImplicit, BoxSlidingAndTurningUnderTwoSheetsStaysOutOfThem) {
   Simulator sim(implicit_at(layered_box_scene(2, {0.6f, 0, 0}, {0, 60, 0}), 1.0 / 120.0));
   EXPECT_EQ(step_checked(sim, 72, 1), "");
-  EXPECT_GT(sim.contact_pairs(), 0u);
+  EXPECT_GT(sim.totals().contact_pairs, 0u);
   EXPECT_EQ(sim.substeps(), 15);  // 0.6 m/s and 60 degrees/s: its corners move 7.3 mm per step
 }
 

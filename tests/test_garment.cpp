@@ -328,7 +328,7 @@ TEST(WalkingSkirt, DressesFromTheRestPoseWithSeamsClosedAndNothingInsideOrCrosse
   ASSERT_EQ(m.pieces.size(), 2u);
   ASSERT_GT(m.attach_tri.size(), 30u);
   ASSERT_EQ(step_checked(sim, int(0.75 / s.time.dt), 25), "");
-  EXPECT_GT(sim.pushed_total(), 100u) << "the skirt never touched him";
+  EXPECT_GT(sim.totals().pushed, 100u) << "the skirt never touched him";
   // The waist sits on his hips: the attached vertices near their body points (4 mm off the
   // surface) once the pull has eased in, on average within 2 cm (1.5 measured); the waistband's own springs and
   // the body's push keep some a few centimetres off (nearest points at the start crowd at his sides).

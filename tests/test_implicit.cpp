@@ -10,7 +10,7 @@
 #include "fixtures.h"
 #include "raycloth/error.h"
 #include "sim/model.h"
-#include "sim/physics.h"
+#include "sim/integrate/vbd.h"
 
 namespace raycloth {
 namespace {
@@ -39,7 +39,7 @@ TEST(Implicit, FreeFallIsImplicitEulerExactly) {
     EXPECT_NEAR(x[i].x, start[i].x, 1e-6);
     EXPECT_NEAR(sim.velocities()[i].y, -9.81 * dt * n, 1e-3);
   }
-  EXPECT_EQ(sim.unconverged_steps(), 0u);
+  EXPECT_EQ(sim.totals().unconverged, 0u);
 }
 
 // One block-descent step on a vertex between two springs at rest with no inertia to speak of goes

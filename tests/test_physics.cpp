@@ -7,7 +7,7 @@
 #include "raycloth/error.h"
 #include "raycloth/simulator.h"
 #include "sim/model.h"
-#include "sim/physics.h"
+#include "sim/integrate/explicit.h"
 
 using namespace raycloth;
 

@@ -13,6 +13,7 @@
 #include "raycloth/simulator.h"
 #include "sim/garment_fit.h"
 #include "sim/model.h"
+#include "sim/model_check.h"
 #include "sim/seams.h"
 
 using namespace raycloth;
@@ -171,6 +172,41 @@ TEST(GarmentFit, APanelPlacedThroughTheBodyIsMovedClearAlongItsNormal) {
   EXPECT_LE(std::abs(fits[0].moved), 0.12f + 0.004f + 0.005f + 1e-5f);
   for (const Vec3& p : m.initial_positions) EXPECT_GE(std::abs(p.z), 0.124f);
   // And the simulator starts from there (nothing inside, nothing crossed).
+  EXPECT_NO_THROW(Simulator sim(s));
+}
+
+TEST(GarmentFit, TwoPanelsThatCrossOnceClearOfTheBodyAreParted) {
+  // Panels through each other but clear of the body (a hood over a sleeve, as GarmentCodeData's
+  // rand_3DSCJVZ2EU starts): one of each crossing pair moves on along its normal, away from the
+  // body, until they no longer cross; the run then starts.
+  const fs::path d = temp_dir("parted");
+  write(d / "body.obj", boxes_obj(kBody));
+  // Front and back 60 x 30 cm at z = +-25 cm; a flap on each side, level at 1.2 m, 22 to 42 cm
+  // out from the middle and 60 cm deep, through both.
+  const std::string sq = R"("edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}])";
+  write(d / "g.json", R"({"pattern": {"panels": {
+    "front": {"translation": [0, 105.7, 25], "rotation": [0, 0, 0], "vertices": [[-30, 0], [30, 0], [30, 30], [-30, 30]], )" + sq + R"(},
+    "back": {"translation": [0, 105.7, -25], "rotation": [0, 0, 0], "vertices": [[-30, 0], [30, 0], [30, 30], [-30, 30]], )" + sq + R"(},
+    "right": {"translation": [22, 120, -30], "rotation": [90, 0, 0], "vertices": [[0, 0], [20, 0], [20, 60], [0, 60]], )" + sq + R"(},
+    "left": {"translation": [-42, 120, -30], "rotation": [90, 0, 0], "vertices": [[0, 0], [20, 0], [20, 60], [0, 60]], )" + sq + R"(}},
+    "stitches": []}, "properties": {"units_in_meter": 100, "curvature_coords": "relative"}})");
+  const SceneDef s = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
+  ClothModel m = build_cloth_model(s);
+  CheckReport before;
+  check_cloth_crossings(cloth_check_mesh(m, m.initial_positions), before);
+  ASSERT_GT(before.crossings, 0u) << "the two panels should start through each other";
+  const ObstacleSet o = build_obstacles(s);
+  const std::vector<PanelFit> fits = fit_garments(m, o, s);
+  CheckReport after;
+  check_cloth_crossings(cloth_check_mesh(m, m.initial_positions), after);
+  EXPECT_EQ(after.crossings, 0u);
+  ASSERT_EQ(fits.size(), 4u);
+  float moved = 0;
+  for (const PanelFit& f : fits) {
+    moved += std::abs(f.moved);
+    EXPECT_LE(std::abs(f.moved), float(kMaxClearMove) + 1e-5f) << f.panel;
+  }
+  EXPECT_GT(moved, 0.0f);
   EXPECT_NO_THROW(Simulator sim(s));
 }
 

@@ -13,6 +13,7 @@
 #include "sim/backend.h"
 #include "sim/cuda_pose.cuh"
 #include "sim/model.h"
+#include "sim/step_view.h"
 
 namespace raycloth {
 namespace {
@@ -335,24 +336,29 @@ TEST(SkinnedBody, CudaDeviceNoLongerRefusesSkinnedBodies) {
   }
 }
 
-TEST(SkinnedBody, ReachBoundFromJointMatricesCoversEveryVertexMove) {
-  // The CUDA backend bounds how far the body moves in a step from the joint matrices alone
-  // (skinned_reach): never less than the largest vertex move, and not much more.
+TEST(SkinnedBody, ObstacleReachIsTheLargestVertexMoveOfTheStep) {
+  // How far the body moves in a step, as both backends measure it (stage_obstacle_move and
+  // obstacle_reach, sim/step_view.h): the largest move of any vertex of the posed body, with 1 %
+  // and 0.1 um to spare; 0 where no body moves.
   const ObstacleSet set = build_obstacles(walking_scene());
-  const std::vector<JointBall> balls = joint_balls(*set.skinned[0]);
   const double dt = 4e-4;
   for (double t : {0.0, 0.2, 0.65, 1.0 - dt, 1.9, 3.2}) {
-    std::vector<Affine> before, after, rate;
-    set.skinned_joints(0, t, before, rate);
-    set.skinned_joints(0, t + dt, after, rate);
     std::vector<Vec3> x0, x1, v;
     set.pose_at(t, x0, v);
     set.pose_at(t + dt, x1, v);
     float moved = 0;
     for (size_t i = 0; i < x0.size(); ++i) moved = std::max(moved, length(x1[i] - x0[i]));
-    const float reach = skinned_reach(balls, before.data(), after.data());
-    EXPECT_GE(reach, moved) << "t = " << t;
-    EXPECT_LT(reach, 4 * moved + 1e-5f) << "t = " << t;
+    StepCounters counters;
+    StepView s;
+    s.counters = &counters;
+    s.geom.obstacle_vertices = x1.data();
+    s.obstacle_prev = x0.data();
+    s.bodies_move = true;
+    for (uint32_t i = 0; i < x0.size(); ++i) stage_obstacle_move(s, i);
+    EXPECT_EQ(obstacle_reach(s), moved * 1.01f + 1e-7f) << "t = " << t;
+    EXPECT_GT(obstacle_reach(s), 0.0f);
+    s.bodies_move = false;
+    EXPECT_EQ(obstacle_reach(s), 0.0f);
   }
 }
 
@@ -381,7 +387,7 @@ TEST(SkinnedBody, CudaRunsTheWalkingManOutsideAndUncrossed) {
   Simulator sim(walking_scene(), opt);
   ASSERT_EQ(sim.device(), "cuda");
   ASSERT_EQ(test::step_checked(sim, 2250, 10), "");
-  EXPECT_GT(sim.pushed_total(), 1000u) << "the body never touched the cloth";
+  EXPECT_GT(sim.totals().pushed, 1000u) << "the body never touched the cloth";
 }
 
 TEST(SkinnedBody, ClothOnTheWalkingManStaysOutsideAndUncrossed) {
@@ -390,7 +396,7 @@ TEST(SkinnedBody, ClothOnTheWalkingManStaysOutsideAndUncrossed) {
   // 3.5 s, checked every 10 steps, was clean too (docs/garments.md).
   Simulator sim(walking_scene());
   ASSERT_EQ(test::step_checked(sim, 2250, 10), "");
-  EXPECT_GT(sim.pushed_total(), 1000u) << "the body never touched the cloth";
+  EXPECT_GT(sim.totals().pushed, 1000u) << "the body never touched the cloth";
 }
 
 TEST(SkinnedBody, ClothStaysOutsideAnArmSwingingFastThroughIt) {
@@ -429,7 +435,7 @@ TEST(SkinnedBody, ClothStaysOutsideAnArmSwingingFastThroughIt) {
     ASSERT_EQ(test::step_checked(sim, 250, 5), "") << "in the 0.1 s from " << 0.1 * k << " s";
     for (size_t i = 0; i < start.size(); ++i) carried_back = std::max(carried_back, start[i].z - sim.positions()[i].z);
   }
-  EXPECT_GT(sim.pushed_total(), 1000u) << "the arm never touched the cloth";
+  EXPECT_GT(sim.totals().pushed, 1000u) << "the arm never touched the cloth";
   EXPECT_GT(carried_back, 0.2f) << "the arm did not carry the cloth back";
 }
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "raycloth/scene.h"
+#include "raycloth/totals.h"
 #include "raycloth/vec3.h"
 
 namespace raycloth {
@@ -20,7 +21,7 @@ struct SimOptions {
 
 // Seconds spent in each stage, summed over all steps so far.
 struct StageTimes {
-  double integrate = 0;  // spring forces, gravity, damping, Euler step
+  double integrate = 0;  // the integrator (sim/integrate/): spring forces, gravity, damping, the step
   double update = 0;     // acceleration-structure refit
   double cast = 0;       // collision rays
   double respond = 0;    // collision response
@@ -60,31 +61,11 @@ class Simulator {
   double time() const { return double(steps_) * scene_.time.dt; }
   // Vertices with an entry in the collision buffer (W >= 0) in the last step.
   uint64_t last_hits() const { return last_hits_; }
-  // Summed over all steps: vertices an obstacle pushed out at t + dt; vertices whose move the
-  // displacement bound shortened (each a place where the response alone would have let cloth meet
-  // cloth); vertices the bound kept from leaving an obstacle completely (cloth on both sides).
-  uint64_t pushed_total() const { return pushed_total_; }
-  uint64_t clamped_total() const { return clamped_total_; }
-  uint64_t conflicts_total() const { return conflicts_total_; }
-  // Summed over all steps: vertices whose push out of an obstacle the bound shortened (most stay
-  // outside: the push goes to the thickness beyond the surface).
-  uint64_t push_clamped_total() const { return push_clamped_total_; }
-  // Steps that recomputed the displacement bound of every vertex (the others reuse it, or refresh
-  // only the vertices that need more room).
-  uint64_t bound_refreshes() const { return refreshes_total_; }
-  // Steps that recomputed the bound only for the vertices that needed more room.
-  uint64_t bound_partial_refreshes() const { return partial_refreshes_total_; }
-  // The two-sided contact solve, summed over all steps: cloth vertex-triangle pairs found within the
-  // thickness, vertices it moved, and its position rounds that acted.
-  uint64_t contact_pairs() const { return contact_pairs_total_; }
-  uint64_t contact_moved() const { return contact_moved_total_; }
-  uint64_t contact_rounds() const { return contact_rounds_total_; }
-  // Further passes of the displacement bound, summed over all steps.
-  uint64_t bound_passes() const { return bound_passes_total_; }
-  // The implicit integrator (time.integrator "implicit"): steps whose last sweep still moved a
-  // vertex more than time.tolerance, and the largest such last-sweep step (metres).
-  uint64_t unconverged_steps() const { return unconverged_total_; }
-  double max_residual() const { return max_residual_; }
+  // What the steps did, summed over all of them (raycloth/totals.h): vertices an obstacle pushed out
+  // at t + dt, vertices whose move the displacement bound shortened (each a place where the response
+  // alone would have let cloth meet cloth), the bound's refreshes and further passes, the two-sided
+  // contact solve's pairs, moves and rounds, and the implicit integrator's convergence.
+  const RunTotals& totals() const { return totals_; }
   const StageTimes& stage_times() const { return times_; }
 
   // Checkpoints (io/checkpoint.h): the whole state after steps(), so that a Simulator built from the
@@ -123,8 +104,9 @@ class Simulator {
 
  private:
   SceneDef scene_;
-  SceneDef step_scene_;  // what the backend steps: scene_ with dt / substeps_
   int substeps_ = 1;
+  double step_dt_ = 0;       // what the backend steps: scene_.time.dt / substeps_,
+  int step_iterations_ = 0;  // with these sweeps (the implicit integrator)
   std::vector<PanelMove> panel_moves_;
   uint64_t stitches_welded_ = 0, weld_from_ = 0, weld_every_ = 1;
   void advance(int n);
@@ -135,10 +117,8 @@ class Simulator {
   std::unique_ptr<Backend> backend_;
   std::vector<Vec3> x_, v_;
   bool synced_ = true;
-  uint64_t steps_ = 0, last_hits_ = 0, pushed_total_ = 0, clamped_total_ = 0, conflicts_total_ = 0, refreshes_total_ = 0;
-  uint64_t partial_refreshes_total_ = 0, contact_pairs_total_ = 0, contact_moved_total_ = 0, contact_rounds_total_ = 0;
-  uint64_t push_clamped_total_ = 0, bound_passes_total_ = 0, unconverged_total_ = 0;
-  double max_residual_ = 0;
+  uint64_t steps_ = 0, last_hits_ = 0;
+  RunTotals totals_;
   StageTimes times_;
 };
 

@@ -22,7 +22,6 @@ struct CollisionParams {
   float tolerance = 0.005f;
   float thickness = 0.002f;
   float friction = 0.4f;
-  float dt = 1e-3f;
 };
 
 // Triangles and vertices the rules read: obstacle mesh (world space) and the cloth.
@@ -116,13 +115,13 @@ RC_HD Vec3 contact_velocity(Vec3 v, Vec3 n, Vec3 u, float friction) {
 
 // The response: keep the vertex at least `thickness` on the normal's side of the surface plane at
 // the hit, remove the velocity into the surface and apply Coulomb friction to the tangential part.
-// Returns true when it acted.
-RC_HD bool respond(const Ray& r, const Contact& c, const CollisionParams& p, Vec3& v, Vec3& x_next) {
+// Returns true when it acted. dt: the step's (a cloth surface hit at t moves on during it).
+RC_HD bool respond(const Ray& r, const Contact& c, const CollisionParams& p, float dt, Vec3& v, Vec3& x_next) {
   if (c.w < 0.0f) return false;
   const Vec3 n = c.normal;
   // Cloth was hit where it is at t and moves on during the step; obstacles are cast at t + dt.
   Vec3 surface = r.org + r.dir * c.w;
-  if (c.kind == kHitCloth) surface += c.surface_velocity * p.dt;
+  if (c.kind == kHitCloth) surface += c.surface_velocity * dt;
   const float s = dot(x_next - surface, n);
   if (s >= p.thickness) return false;
   x_next += n * (p.thickness - s);

@@ -183,8 +183,8 @@ class Run {
   // A run continued from its checkpoint. Returns the first frame to step to.
   int resume() {
     const int done = resume_run_checkpoint(opt_.out_dir, header_, plan_.num_frames, sim_, report_, sinks_);
-    clamped_seen_ = sim_.clamped_total();
-    pushed_seen_ = sim_.pushed_total();
+    clamped_seen_ = sim_.totals().clamped;
+    pushed_seen_ = sim_.totals().pushed;
     if (!opt_.quiet) spdlog::info("resuming at frame {} of {} (step {})", done, plan_.num_frames, sim_.steps());
     return done + 1;
   }
@@ -243,10 +243,10 @@ class Run {
     rec.time = sim_.time();
     rec.step = sim_.steps();
     rec.hits = sim_.last_hits();
-    rec.clamped = sim_.clamped_total() - clamped_seen_;
-    rec.pushed = sim_.pushed_total() - pushed_seen_;
-    clamped_seen_ = sim_.clamped_total();
-    pushed_seen_ = sim_.pushed_total();
+    rec.clamped = sim_.totals().clamped - clamped_seen_;
+    rec.pushed = sim_.totals().pushed - pushed_seen_;
+    clamped_seen_ = sim_.totals().clamped;
+    pushed_seen_ = sim_.totals().pushed;
     rec.kinetic_energy = kinetic_energy(sim_.model(), sim_.velocities());
     rec.seam_gap = largest_stitch_gap(sim_.model(), sim_.positions());
     if (opt_.check) {
@@ -267,7 +267,7 @@ class Run {
     report_.steps = sim_.steps();
     report_.simulated_time = sim_.time();
     report_.stages = sim_.stage_times();
-    report_.bound_refreshes = sim_.bound_refreshes();
+    report_.bound_refreshes = sim_.totals().refreshes;
     report_.steps_per_second = report_.wall_time > 0 ? double(report_.steps) / report_.wall_time : 0.0;
     const nlohmann::json j = run_json(report_, sim_);
     write_file_atomically(opt_.out_dir / "run.json", [&](std::ostream& out) { out << j.dump(2) << "\n"; });

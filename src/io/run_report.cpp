@@ -81,23 +81,18 @@ nlohmann::json run_json(const RunReport& r, Simulator& sim) {
   }
   j["frames"] = frames;
   if (!m.stitches.empty()) j["seams"] = seams_json(r, sim);
-  j["contact"] = {{"pushed_by_obstacles", sim.pushed_total()},
-                  {"clamped_by_bound", sim.clamped_total()},
-                  {"obstacle_conflicts", sim.conflicts_total()},
-                  {"push_shortened_by_bound", sim.push_clamped_total()},
-                  {"bound_refreshes", sim.bound_refreshes()},
-                  {"bound_partial_refreshes", sim.bound_partial_refreshes()},
-                  {"cloth_contact_pairs", sim.contact_pairs()},
-                  {"moved_by_contact_solve", sim.contact_moved()},
-                  {"contact_solve_rounds", sim.contact_rounds()},
-                  {"bound_passes", sim.bound_passes()}};
+  // The run's totals (raycloth/totals.h), each in its section; the integrator's follow.
+  j["contact"] = nlohmann::json::object();
+  for_each_total(sim.totals(), [&](const char* name, const char* section, uint64_t value) {
+    if (std::string(section) == "contact") j["contact"][name] = value;
+  });
   // The integrator, and for the implicit one its convergence: the sweeps per step, the tolerance on
   // the last sweep's largest step, the steps (substeps) that did not reach it and the largest such step.
   const TimeDef& td = sim.scene().time;
   if (td.integrator == Integrator::Implicit)
     j["integrator"] = {{"name", "implicit"},           {"method", "implicit Euler, vertex block descent"},
                        {"iterations", td.iterations},  {"tolerance", td.tolerance},
-                       {"unconverged_steps", sim.unconverged_steps()}, {"max_residual", sim.max_residual()},
+                       {"unconverged_steps", sim.totals().unconverged}, {"max_residual", sim.totals().max_residual},
                        // Where a body moves, each step is done in substeps (Simulator::substeps).
                        {"substeps", sim.substeps()}};
   else
@@ -150,10 +145,10 @@ nlohmann::json timing_json(const RunReport& r) {
 }
 
 void warn_unconverged(const SceneDef& scene, Simulator& sim) {
-  if (scene.time.integrator != Integrator::Implicit || sim.unconverged_steps() == 0) return;
+  if (scene.time.integrator != Integrator::Implicit || sim.totals().unconverged == 0) return;
   spdlog::warn("the implicit integrator did not converge in {} of {} steps: its last sweep still moved a vertex up to "
                "{:.3g} m (time.tolerance {:g} m); raise time.iterations or lower time.dt",
-               sim.unconverged_steps(), sim.steps(), sim.max_residual(), scene.time.tolerance);
+               sim.totals().unconverged, sim.steps(), sim.totals().max_residual, scene.time.tolerance);
 }
 
 void warn_open_seams(Simulator& sim, const RunReport& r) {

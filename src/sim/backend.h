@@ -1,5 +1,6 @@
-// A backend runs whole steps over device-resident (CUDA) or host (CPU) state. Both call the same
-// per-vertex stages (sim/stages.h); they differ in the loop driver and the ray tracer.
+// A backend runs whole steps over device-resident (CUDA) or host (CPU) state. Both run the same step
+// (sim/step.h) with the scene's integrator (sim/integrate/); they differ in the loop driver and the
+// ray tracer.
 #pragma once
 #include <algorithm>
 #include <cstdint>
@@ -10,7 +11,7 @@
 #include "raycloth/simulator.h"
 #include "sim/model.h"
 #include "collide/collider.h"
-#include "sim/stages.h"
+#include "sim/step_view.h"
 
 namespace raycloth {
 
@@ -43,29 +44,68 @@ class Backend {
   virtual void replace_state(const std::vector<Vec3>& x, const std::vector<Vec3>& v) { (void)x, (void)v; }
 };
 
+// The step the backend takes: a substep's dt and sweeps (Simulator: where a body moves, the
+// implicit integrator's steps are cut into substeps); dt 0 for the scene's own.
+struct StepSettings {
+  double dt = 0;
+  int iterations = 0;
+};
+
 struct BackendInput {
   const SceneDef* scene;
   const ClothModel* model;
   const ObstacleSet* obstacles;
+  StepSettings substep;
+  // The step taken: the substep where one is given, else the scene's time step and sweeps.
+  StepSettings step() const {
+    return substep.dt > 0 ? substep : StepSettings{scene->time.dt, scene->time.iterations};
+  }
 };
 
-// A step view with the scene's scalar parameters (collision settings, dt, gravity, how far seams
-// have closed at the start of `step`) filled in; the backend adds its own array pointers.
-inline StepView step_view_for(const SceneDef& scene, const ClothModel& model, uint64_t step) {
+// What a backend keeps in its own memory beyond the state: the model's arrays (their view), the
+// obstacles at t + dt (and at t, where they move) and the two trees.
+struct StepBuffers {
+  ModelView model;
+  const Vec3* obstacle_x = nullptr;
+  const Vec3* obstacle_v = nullptr;
+  const Vec3* obstacle_prev = nullptr;
+  const uint32_t* obstacle_indices = nullptr;  // the collision triangles (ObstacleSet::collision_indices)
+  uint32_t num_obstacle_vertices = 0;
+  bool bodies_move = false;
+  BvhView obstacle_bvh, cloth_bvh;
+};
+
+// The step's view, the same on both backends: the scene's collision settings, the step's context
+// (dt, how far seams have closed at the start of `step`, gravity), the backend's buffers and the
+// state's arrays (SimState::wire).
+template <class State>
+StepView make_step_view(const BackendInput& in, uint64_t step, const StepBuffers& b, State& st) {
+  const SceneDef& scene = *in.scene;
+  const ClothModel& model = *in.model;
   StepView s;
   if (model.sew_time > 0) {
-    const double u = std::min(1.0, double(step) * scene.time.dt / double(model.sew_time));
-    s.sew = float(u * u * (3 - 2 * u));  // smoothstep: no jolt at either end
+    const double u = std::min(1.0, double(step) * in.step().dt / double(model.sew_time));
+    s.ctx.sew = float(u * u * (3 - 2 * u));  // smoothstep: no jolt at either end
   }
+  s.ctx.dt = float(in.step().dt);
+  s.ctx.gravity = make_vec3(scene.gravity[0], scene.gravity[1], scene.gravity[2]);
+  if (model.ease_gravity) s.ctx.gravity = s.ctx.gravity * s.ctx.sew;
   s.coll.tolerance = scene.collision.tolerance;
   s.coll.thickness = scene.collision.thickness;
   s.coll.friction = scene.collision.friction;
-  s.coll.dt = float(scene.time.dt);
-  s.implicit = scene.time.integrator == Integrator::Implicit;
-  s.iterations = uint32_t(scene.time.iterations);
-  s.tolerance = float(scene.time.tolerance);
-  s.gravity = make_vec3(scene.gravity[0], scene.gravity[1], scene.gravity[2]);
-  if (model.ease_gravity) s.gravity = s.gravity * s.sew;
+  s.model = b.model;
+  s.geom.obstacle_vertices = b.obstacle_x;
+  s.geom.obstacle_velocities = b.bodies_move ? b.obstacle_v : nullptr;
+  s.geom.obstacle_indices = b.obstacle_indices;
+  s.geom.cloth_indices = b.model.triangles;
+  st.wire(s);
+  s.mean_edge = model.mean_edge;
+  s.cloth_contact = scene.collision.cloth_cloth;
+  s.obstacle_bvh = b.obstacle_bvh;
+  s.cloth_bvh = b.cloth_bvh;
+  s.bodies_move = b.bodies_move;
+  s.obstacle_prev = b.obstacle_prev;
+  s.num_obstacle_vertices = b.num_obstacle_vertices;
   return s;
 }
 

@@ -295,10 +295,10 @@ RC_HD uint32_t stage_clamp(const StepView& s, uint32_t i) {
 // invariant, so the guarantee stands; layers moving together gain kBoundFactor of their gap per pass.
 inline constexpr uint32_t kBoundPasses = 4;
 
-// 1 when vertex i was pushed (by an obstacle or by the contact solve) and is clamped; with the
-// implicit integrator, when it is clamped at all.
-RC_HD uint32_t stage_held(const StepView& s, uint32_t i) {
-  return (s.flags[i] & kFlagClamped) && (s.implicit || (s.flags[i] & (kFlagPushed | kFlagContact))) ? 1u : 0u;
+// 1 when vertex i was pushed (by an obstacle or by the contact solve) and is clamped; with an
+// integrator of long steps (`every_clamp`), when it is clamped at all.
+RC_HD uint32_t stage_held(const StepView& s, uint32_t i, bool every_clamp) {
+  return (s.flags[i] & kFlagClamped) && (every_clamp || (s.flags[i] & (kFlagPushed | kFlagContact))) ? 1u : 0u;
 }
 
 // Before the first clamp: every vertex's goal (position and velocity).
@@ -331,8 +331,8 @@ RC_HD void stage_bound_pass_move(const StepView& s, uint32_t i) {
 
 // The clamp of a further pass (m: the step's view with x = x_mid): along the rest of its move. The
 // velocity is the goal's, shortened as much as the whole move from x was. Returns 1 when it held
-// back a pushed vertex again.
-RC_HD uint32_t stage_bound_pass_clamp(const StepView& s, const StepView& m, uint32_t i) {
+// back a pushed vertex again (every_clamp: as stage_held).
+RC_HD uint32_t stage_bound_pass_clamp(const StepView& s, const StepView& m, uint32_t i, bool every_clamp) {
   if (!s.counters->pass_active || !is_free(s, i)) return 0u;
   s.flags[i] &= ~kFlagClamped;
   const uint32_t clamped = stage_clamp(m, i);
@@ -340,7 +340,7 @@ RC_HD uint32_t stage_bound_pass_clamp(const StepView& s, const StepView& m, uint
   const double got = sqrt(ddot(dvec(s.x_next[i]) - dvec(s.x[i]), dvec(s.x_next[i]) - dvec(s.x[i])));
   s.v_next[i] = s.v_goal[i] * float(want > 0.0 ? (got < want ? got / want : 1.0) : 1.0);
   if (clamped) s.flags[i] |= kFlagClamped;
-  return stage_held(s, i);
+  return stage_held(s, i, every_clamp);
 }
 
 // A vertex an obstacle pushed out and the bound then held back: 1 when it shortened the push.
@@ -362,7 +362,7 @@ RC_HD bool inside_obstacle(const StepView& s, Vec3 p, float reach) {
 RC_HD uint32_t stage_conflict(const StepView& s, uint32_t i) {
   if (!stage_push_clamped(s, i)) return 0u;
   const Vec3 xn = s.x_next[i];
-  return inside_obstacle(s, xn, s.coll.thickness + length(xn - s.x[i]) + s.obstacle_reach) ? 1u : 0u;
+  return inside_obstacle(s, xn, s.coll.thickness + length(xn - s.x[i]) + obstacle_reach(s)) ? 1u : 0u;
 }
 
 }  // namespace raycloth

@@ -43,9 +43,7 @@ inline constexpr uint32_t kContactRounds = 32;  // position rounds at most in on
 // the last fractions of a Jacobi iteration's convergence.
 inline constexpr float kContactSlack = 0.05f;
 // A vertex moves by kContactRelax / count of the sum of what its `count` pairs give it in a round (at
-// most the sum): 1 is plain averaging. Over-relaxing (1.8 was tried) made a vertex between a moving
-// body and a layer swing back and forth by centimetres within a step; plain rounds, more of them
-// (kContactRounds), converged: a push through three layers took about 20 rounds.
+// most the sum): 1 is plain averaging (docs/collision.md says why not more).
 inline constexpr float kContactRelax = 1.0f;
 // The gap a pair is held at: the thickness, or where a moving body pushes the cloth kGapPerMove
 // times the push, that is the smaller of its vertices' largest move in the step and the obstacles'
@@ -91,7 +89,7 @@ RC_HD void stage_contact_reach(const StepView& s, uint32_t i) {
 RC_HD bool contact_far(const StepView& s, uint32_t i) {
   const float nearest = fminf(float_from_bits(s.bound[i]), s.bound_radius[i]);
   return nearest - length(s.x_next[i] - s.x_ref[i]) - float_from_bits(s.counters->drift_max) >
-         kNearFactor * contact_gap(s.coll.thickness, s.obstacle_reach);
+         kNearFactor * contact_gap(s.coll.thickness, obstacle_reach(s));
 }
 
 // True when vertex i's bound shows a cloth feature sharing no vertex with it (a vertex, a triangle
@@ -138,7 +136,7 @@ RC_HD uint32_t stage_contact_find_vertex(const StepView& s, uint32_t i) {
   if (!s.cloth_contact || !is_representative(s.model, i) || !is_finite(s.x_next[i]) || contact_far(s, i)) return 0u;
   const Vec3 y = s.x_next[i];
   const DVec3 dy = dvec(y);
-  const double reach = contact_gap(s.coll.thickness, s.obstacle_reach);
+  const double reach = contact_gap(s.coll.thickness, obstacle_reach(s));
   const double limit2 = reach * reach, near2 = kNearFactor * kNearFactor * limit2;
   uint32_t found = 0, keys[kVertexPairs];
   double d2s[kVertexPairs];
@@ -193,7 +191,7 @@ RC_HD uint32_t stage_contact_find_edge(const StepView& s, uint32_t e) {
       !is_finite(s.x_next[b]))
     return 0u;
   const DVec3 ya = dvec(s.x_next[a]), yb = dvec(s.x_next[b]);
-  const double reach = contact_gap(s.coll.thickness, s.obstacle_reach);
+  const double reach = contact_gap(s.coll.thickness, obstacle_reach(s));
   const double limit2 = reach * reach;
   uint32_t found = 0, keys[kEdgePairs];
   double d2s[kEdgePairs];
@@ -293,7 +291,7 @@ RC_HD uint32_t stage_contact_push(const StepView& s, uint32_t k, uint32_t mode) 
     }
     denom += p.w[k] * p.w[k] * inv[k];
   }
-  float gap = contact_gap(s.coll.thickness, fminf(move, s.obstacle_reach));
+  float gap = contact_gap(s.coll.thickness, fminf(move, obstacle_reach(s)));
   // A squeeze: every free vertex of the pair is backed by a body, on both sides (a hand pressing
   // two layers against a hip). The bodies win, so nothing of the pair could move, and the bound
   // would then let the layers close in on each other step after step until neither can move at all

@@ -1,5 +1,5 @@
 // CPU backend: the step of sim/step.h with oneTBB loops; rays cast by Embree (or any Collider),
-// proximity queries on the host BVH.
+// proximity queries on the host BVH; checkpoints and edits between steps.
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
@@ -7,11 +7,13 @@
 #include <algorithm>
 #include <chrono>
 #include <utility>
+#include <variant>
 
 #include "collide/bvh.h"
 #include "collide/cpu/embree_collider.h"
 #include "core/bytes.h"
 #include "sim/backend.h"
+#include "sim/integrate/integrators.h"
 #include "sim/state.h"
 #include "sim/step.h"
 
@@ -25,8 +27,10 @@ constexpr uint32_t kGrain = 256;
 class CpuBackend final : public Backend {
  public:
   CpuBackend(const BackendInput& in, std::unique_ptr<Collider> collider)
-      : scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), collider_(std::move(collider)), st_(model_) {
+      : in_(in), scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), step_(in.step()), collider_(std::move(collider)),
+        st_(model_) {
     const uint32_t n = model_.num_vertices();
+    make_integrator(integrator_, scene_.time, n, step_.iterations);
     obstacles_.pose_at(0.0, obstacle_x_, obstacle_v_);
     collider_->set_obstacles(obstacle_x_.data(), obstacle_x_.size(), obstacles_.collision_indices.data(),
                              obstacles_.num_collision_triangles(), obstacles_.any_moving);
@@ -41,7 +45,7 @@ class CpuBackend final : public Backend {
 
   StepResult step(int n, uint64_t first_step, StageTimes& times) override {
     times_ = &times;
-    return run_steps(*this, n, first_step);
+    return std::visit([&](auto& integrator) { return run_steps(*this, integrator, n, first_step); }, integrator_);
   }
 
   void download(std::vector<Vec3>& x, std::vector<Vec3>& v) override {
@@ -73,20 +77,12 @@ class CpuBackend final : public Backend {
     st_.bound_age[0] = 0;
   }
 
+  // x and v, the state arrays the next step reads (SimState::for_each_kept), the obstacles and the
+  // trees.
   void save(ByteWriter& out) override {
     out.u64(model_.num_vertices());
-    const int c = st_.cur, nx = c ^ 1;
-    for (const auto* v : {&st_.x[c], &st_.v[c], &st_.x[nx], &st_.v[nx], &st_.contact_normal, &st_.x_ref, &obstacle_x_,
-                          &obstacle_v_, &obstacle_prev_})
-      out.vec(*v);
-    out.vec(st_.rays);
-    out.vec(st_.hits);
-    out.vec(st_.contacts);
-    out.vec(st_.bound);
-    out.vec(st_.flags);
-    out.vec(st_.bound_radius);
-    out.pod(st_.counters[0]);
-    out.u32(st_.bound_age[0]);
+    st_.for_each_kept([&](const auto& array, const char*) { out.vec(array); });
+    for (const auto* v : {&obstacle_x_, &obstacle_v_, &obstacle_prev_}) out.vec(*v);
     for (const HostBvh* b : {&obstacle_bvh_, &cloth_bvh_}) {
       out.u32(b->num_prims);
       for (const auto* v : {&b->child, &b->parent, &b->prim, &b->counter}) out.vec(*v);
@@ -102,20 +98,14 @@ class CpuBackend final : public Backend {
   void restore(ByteReader& in, uint64_t steps) override {
     const size_t n = model_.num_vertices();
     if (in.u64() != n) in.fail("was written for a cloth of another size");
-    const int c = st_.cur, nx = c ^ 1;
-    for (auto* v : {&st_.x[c], &st_.v[c], &st_.x[nx], &st_.v[nx], &st_.contact_normal, &st_.x_ref}) in.vec(*v, n, "cloth vertices");
+    st_.for_each_kept([&](auto& array, const char* what) {
+      const size_t size = array.size();
+      in.vec(array, size, what);
+    });
     const size_t no = obstacles_.world.vertices.size();
     in.vec(obstacle_x_, no, "obstacle vertices");
     in.vec(obstacle_v_, no, "obstacle vertices");
     in.vec(obstacle_prev_);
-    in.vec(st_.rays, n, "rays");
-    in.vec(st_.hits, n, "hits");
-    in.vec(st_.contacts, n, "contacts");
-    in.vec(st_.bound, n, "bounds");
-    in.vec(st_.flags, n, "flags");
-    in.vec(st_.bound_radius, n, "bound radii");
-    in.pod(st_.counters[0]);
-    st_.bound_age[0] = in.u32();
     for (HostBvh* b : {&obstacle_bvh_, &cloth_bvh_}) {
       b->num_prims = in.u32();
       for (auto* v : {&b->child, &b->parent, &b->prim, &b->counter}) in.vec(*v);
@@ -135,7 +125,7 @@ class CpuBackend final : public Backend {
     const auto t = Clock::now();
     if (obstacles_.any_moving) {
       obstacle_prev_ = obstacle_x_;
-      obstacles_.pose_at(double(step + 1) * scene_.time.dt, obstacle_x_, obstacle_v_);
+      obstacles_.pose_at(double(step + 1) * step_.dt, obstacle_x_, obstacle_v_);
       collider_->update_obstacles(obstacle_x_.data());
       refit_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.collision_indices.data());
       // A deforming (skinned) body can degrade the refit tree as the cloth's does.
@@ -231,35 +221,27 @@ class CpuBackend final : public Backend {
   }
 
   StepView view(uint64_t step) {
-    StepView s = step_view_for(scene_, model_, step);
-    s.model = model_.view();
-    s.geom.obstacle_vertices = obstacle_x_.data();
-    s.geom.obstacle_velocities = obstacles_.any_moving ? obstacle_v_.data() : nullptr;
-    s.geom.obstacle_indices = obstacles_.collision_indices.data();
-    s.geom.cloth_indices = model_.collision_triangles.data();
-    st_.wire(s);
-    s.mean_edge = model_.mean_edge;
-    s.cloth_contact = scene_.collision.cloth_cloth;
-    s.obstacle_bvh = obstacle_bvh_.view();
-    s.cloth_bvh = cloth_bvh_.view();
-    s.obstacle_reach = obstacle_reach();
-    return s;
+    StepBuffers b;
+    b.model = model_.view();
+    b.obstacle_x = obstacle_x_.data();
+    b.obstacle_v = obstacle_v_.data();
+    b.obstacle_prev = obstacle_prev_.data();
+    b.obstacle_indices = obstacles_.collision_indices.data();
+    b.num_obstacle_vertices = uint32_t(obstacle_x_.size());
+    b.bodies_move = obstacles_.any_moving;
+    b.obstacle_bvh = obstacle_bvh_.view();
+    b.cloth_bvh = cloth_bvh_.view();
+    return make_step_view(in_, step, b, st_);
   }
 
-  // How far any obstacle surface point moves in this step, at most: every vertex moves along a
-  // straight line within the step, so the largest vertex displacement bounds every surface point's.
-  float obstacle_reach() const {
-    if (!obstacles_.any_moving || obstacle_prev_.size() != obstacle_x_.size()) return 0.0f;
-    float d = 0.0f;
-    for (size_t i = 0; i < obstacle_x_.size(); ++i) d = std::max(d, length(obstacle_x_[i] - obstacle_prev_[i]));
-    return d * 1.01f + 1e-7f;
-  }
-
+  const BackendInput in_;
   const SceneDef& scene_;
   const ClothModel& model_;
   const ObstacleSet& obstacles_;
+  const StepSettings step_;
   std::unique_ptr<Collider> collider_;
   SimState<HostArray> st_;
+  AnyIntegrator<HostArray> integrator_;
   std::vector<Vec3> obstacle_x_, obstacle_v_, obstacle_prev_;
   HostBvh obstacle_bvh_, cloth_bvh_;
   StageTimes* times_ = nullptr;

@@ -15,16 +15,14 @@
 #include "collide/cuda/device_bvh.cuh"
 #include "raycloth/error.h"
 #include "sim/backend.h"
-#include "sim/cuda_pose.cuh"
+#include "sim/cuda_obstacles.cuh"
+#include "sim/integrate/integrators.h"
 #include "sim/state.h"
 #include "sim/step.h"
 
 namespace raycloth {
 
 namespace {
-
-constexpr int kBlock = 256;
-inline unsigned grid_for(uint32_t n) { return (n + kBlock - 1) / kBlock; }
 
 template <class F>
 __global__ void k_for_each(uint32_t n, F f) {
@@ -57,141 +55,12 @@ __global__ void k_trace(BvhScene scene, const Ray* rays, RawHit* hits, uint32_t 
 
 __global__ void k_reset_counters(StepCounters* c) { *c = StepCounters(); }
 
-// Moving obstacle vertices: which world vertex, its local position, which obstacle's pose.
-struct PoseView {
-  uint32_t num_vertices = 0, num_moving = 0;
-  const uint32_t* world_index = nullptr;
-  const Vec3* local = nullptr;
-  const uint32_t* pose_index = nullptr;
-  const RigidPose* table = nullptr;  // num_moving poses for one step
-  Vec3* x = nullptr;
-  Vec3* v = nullptr;
-};
-
-__global__ void k_pose_obstacles(PoseView p) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= p.num_vertices) return;
-  const uint32_t w = p.world_index[i];
-  pose_vertex(p.table[p.pose_index[i]], p.local[i], p.x[w], p.v[w]);
-}
-
-// Skinned obstacle vertices: which world vertex, where its obstacle's joints start in a step's
-// joint tables, and the joint matrices (pose) and their rates for one step.
-struct SkinView {
-  uint32_t num_vertices = 0;
-  const SkinnedVertex* vertices = nullptr;
-  const uint32_t* world_index = nullptr;
-  const uint32_t* joint_base = nullptr;
-  const Affine* pose = nullptr;
-  const Affine* rate = nullptr;
-  Vec3* x = nullptr;
-  Vec3* v = nullptr;
-};
-
-__global__ void k_skin_obstacles(SkinView s) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= s.num_vertices) return;
-  const uint32_t w = s.world_index[i], b = s.joint_base[i];
-  skin_obstacle_vertex(s.pose + b, s.rate + b, s.vertices[i], s.x[w], s.v[w]);
-}
-
-// The skinned obstacles of an ObstacleSet on the device: their vertices, uploaded once, and for a
-// run of step times the joint matrices and rates the host computes, uploaded at once; the kernel
-// poses the vertices of one of those times into the obstacle arrays.
-class DeviceSkinning {
- public:
-  explicit DeviceSkinning(const ObstacleSet& o) : o_(o) {
-    std::vector<SkinnedVertex> vertices;
-    std::vector<uint32_t> world_index, joint_base;
-    for (size_t oi = 0; oi < o.skinned.size(); ++oi) {
-      if (!o.skinned[oi]) continue;
-      const SkinnedMesh& m = *o.skinned[oi];
-      for (size_t k = 0; k < m.vertices.size(); ++k) {
-        vertices.push_back(m.vertices[k]);
-        world_index.push_back(o.first_vertex[oi] + uint32_t(k));
-        joint_base.push_back(num_joints_);
-      }
-      const std::vector<JointBall> b = joint_balls(m);
-      balls_.insert(balls_.end(), b.begin(), b.end());
-      obstacles_.push_back(oi);
-      num_joints_ += uint32_t(m.joints.size());
-    }
-    num_vertices_ = uint32_t(vertices.size());
-    vertices_ = DeviceBuffer<SkinnedVertex>(vertices);
-    world_index_ = DeviceBuffer<uint32_t>(world_index);
-    joint_base_ = DeviceBuffer<uint32_t>(joint_base);
-  }
-
-  bool empty() const { return obstacles_.empty(); }
-
-  // Joint tables for `times` (each: the pose, then the rate, num_joints_ each), and for each time
-  // the bound on how far the bodies move from the time before (`before` for the first).
-  void upload(const std::vector<double>& times, double before, cudaStream_t stream) {
-    if (empty()) return;
-    std::vector<Affine> table(times.size() * 2 * num_joints_);
-    reach_.assign(times.size(), 0.0f);
-    std::vector<Affine> previous = poses_at(before), pose, rate;
-    for (size_t k = 0; k < times.size(); ++k) {
-      Affine* out = table.data() + k * 2 * num_joints_;
-      for (size_t m = 0, base = 0; m < obstacles_.size(); ++m) {
-        o_.skinned_joints(obstacles_[m], times[k], pose, rate);
-        std::copy(pose.begin(), pose.end(), out + base);
-        std::copy(rate.begin(), rate.end(), out + num_joints_ + base);
-        base += pose.size();
-      }
-      const std::vector<Affine> now(out, out + num_joints_);
-      reach_[k] = skinned_reach(balls_, previous.data(), now.data());
-      previous = now;
-    }
-    table_.resize(std::max(table_.size(), table.size()));
-    CUDA_CHECK(cudaMemcpyAsync(table_.data(), table.data(), table.size() * sizeof(Affine), cudaMemcpyHostToDevice, stream));
-    CUDA_CHECK(cudaStreamSynchronize(stream));  // `table` is pageable and goes out of scope
-  }
-
-  float reach(size_t k) const { return empty() ? 0.0f : reach_[k]; }
-
-  // Poses the vertices for time k of the last upload into the obstacle arrays x and v.
-  void pose(size_t k, Vec3* x, Vec3* v, cudaStream_t stream) const {
-    if (empty()) return;
-    SkinView s;
-    s.num_vertices = num_vertices_;
-    s.vertices = vertices_.data();
-    s.world_index = world_index_.data();
-    s.joint_base = joint_base_.data();
-    s.pose = table_.data() + k * 2 * num_joints_;
-    s.rate = s.pose + num_joints_;
-    s.x = x;
-    s.v = v;
-    k_skin_obstacles<<<grid_for(num_vertices_), kBlock, 0, stream>>>(s);
-    CUDA_CHECK_LAUNCH();
-  }
-
- private:
-  std::vector<Affine> poses_at(double t) const {
-    std::vector<Affine> all, pose, rate;
-    for (size_t oi : obstacles_) {
-      o_.skinned_joints(oi, t, pose, rate);
-      all.insert(all.end(), pose.begin(), pose.end());
-    }
-    return all;
-  }
-
-  const ObstacleSet& o_;
-  std::vector<size_t> obstacles_;  // the skinned ones
-  std::vector<JointBall> balls_;   // per joint, all skinned obstacles' joints in a row
-  uint32_t num_joints_ = 0, num_vertices_ = 0;
-  std::vector<float> reach_;
-  DeviceBuffer<SkinnedVertex> vertices_;
-  DeviceBuffer<uint32_t> world_index_, joint_base_;
-  DeviceBuffer<Affine> table_;
-};
-
 __global__ void k_probe() {}
 
 class CudaBackend final : public Backend {
  public:
   explicit CudaBackend(const BackendInput& in)
-      : scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), skinning_(*in.obstacles) {
+      : in_(in), scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), step_(in.step()), skinning_(*in.obstacles) {
     // A blocking stream: it waits for the setup copies (cudaMemcpy on the legacy default stream).
     CUDA_CHECK(cudaStreamCreate(&stream_));
     CUDA_CHECK(cudaMallocHost(reinterpret_cast<void**>(&counters_host_), sizeof(StepCounters)));
@@ -214,8 +83,7 @@ class CudaBackend final : public Backend {
     if (obstacles_.any_moving) upload_poses(n, first_step);
     call_first_ = first_step;
     times_ = &times;
-    result = run_steps(*this, n, first_step);
-    return result;
+    return std::visit([&](auto& integrator) { return run_steps(*this, integrator, n, first_step); }, integrator_);
   }
 
   void download(std::vector<Vec3>& x, std::vector<Vec3>& v) override {
@@ -250,8 +118,9 @@ class CudaBackend final : public Backend {
 
   StepView begin(uint64_t step) {
     mark(Stage::Update);
-    step_reach_ = obstacle_reach_;
     if (obstacles_.any_moving) {
+      CUDA_CHECK(cudaMemcpyAsync(obstacle_prev_.data(), obstacle_x_.data(), obstacle_x_.bytes(), cudaMemcpyDeviceToDevice,
+                                 stream_));
       PoseView p;
       p.num_vertices = uint32_t(moving_local_.size());
       p.num_moving = uint32_t(moving_.size());
@@ -267,7 +136,6 @@ class CudaBackend final : public Backend {
       }
       const size_t k = size_t(step - call_first_);
       skinning_.pose(k, obstacle_x_.data(), obstacle_v_.data(), stream_);
-      step_reach_ = std::max(step_reach_, skinning_.reach(k));
       // A deforming body degrades the refit tree: rebuilt every kRebuildEvery steps, like the cloth's.
       if (!skinning_.empty() && ++obstacle_refits_since_build_ >= kRebuildEvery) {
         obstacle_tree_.build(obstacle_x_.data(), obstacle_indices_.data(), stream_);
@@ -332,7 +200,7 @@ class CudaBackend final : public Backend {
   // active (the flag is on the device); the next step's begin() refits it at x again.
   void refit_cloth_at(const Vec3* x, const StepCounters*) {
     mark(Stage::Update);
-    if (cloth_.num_prims() > 0) cloth_.refit(x, cloth_indices_.data(), stream_);
+    if (cloth_.num_prims() > 0) cloth_.refit(x, cloth_indices_, stream_);
   }
 
   void end() { st_->flip(); }
@@ -370,9 +238,9 @@ class CudaBackend final : public Backend {
 
   void refit_cloth_tree() {
     if (cloth_.num_prims() == 0) return;
-    cloth_.refit(st_->x[st_->cur].data(), cloth_indices_.data(), stream_);
+    cloth_.refit(st_->x[st_->cur].data(), cloth_indices_, stream_);
     if (++refits_since_build_ >= kRebuildEvery) {
-      cloth_.build(st_->x[st_->cur].data(), cloth_indices_.data(), stream_);
+      cloth_.build(st_->x[st_->cur].data(), cloth_indices_, stream_);
       refits_since_build_ = 0;
     }
   }
@@ -380,53 +248,32 @@ class CudaBackend final : public Backend {
   // Model, state and trees to the device, once.
   void upload() {
     const ClothModel& m = model_;
-    const uint32_t n = m.num_vertices();
-    inv_mass_ = DeviceBuffer<float>(m.inv_mass);
-    damping_ = DeviceBuffer<float>(m.damping);
-    adj_offset_ = DeviceBuffer<uint32_t>(m.adj_offset);
-    adj_other_ = DeviceBuffer<uint32_t>(m.adj_other);
-    adj_rest_ = DeviceBuffer<float>(m.adj_rest);
-    adj_k_ = DeviceBuffer<float>(m.adj_k);
-    adj_kd_ = DeviceBuffer<float>(m.adj_kd);
-    alias_ = DeviceBuffer<uint32_t>(m.alias);
-    sew_group_ = DeviceBuffer<uint32_t>(m.sew_group);
-    cloth_indices_ = DeviceBuffer<uint32_t>(m.collision_triangles);
-    tri_alias_ = DeviceBuffer<uint32_t>(m.tri_alias);
-    edges_ = DeviceBuffer<uint32_t>(m.edges);
-    tri_edge_owner_ = DeviceBuffer<uint8_t>(m.tri_edge_owner);
-    adj_rest_start_ = DeviceBuffer<float>(m.adj_rest_start);
-    attach_slot_ = DeviceBuffer<uint32_t>(m.attach_slot);
-    attach_tri_ = DeviceBuffer<uint32_t>(m.attach_tri);
-    attach_bary_ = DeviceBuffer<Vec3>(m.attach_bary);
-    attach_offset_ = DeviceBuffer<Vec3>(m.attach_offset);
-    attach_lift_ = DeviceBuffer<float>(m.attach_lift);
-    attach_k_ = DeviceBuffer<float>(m.attach_k);
-    attach_kd_ = DeviceBuffer<float>(m.attach_kd);
-    color_vertices_ = DeviceBuffer<uint32_t>(m.color_vertices);
-
+    // Every array of RAYCLOTH_MODEL_ARRAYS copied once; the view points at the copies.
+    model_view_ = make_model_view(m, [&](const auto& host) {
+      using T = typename std::decay_t<decltype(host)>::value_type;
+      auto buffer = std::make_shared<DeviceBuffer<T>>(host);
+      model_buffers_.push_back(buffer);
+      return static_cast<const T*>(buffer->data());
+    });
+    cloth_indices_ = model_view_.triangles;
+    tri_alias_ = model_view_.tri_alias;
     st_ = std::make_unique<SimState<DeviceBuffer>>(m);
+    make_integrator(integrator_, scene_.time, m.num_vertices(), step_.iterations);
 
     std::vector<Vec3> ox, ov;
     obstacles_.pose_at(0.0, ox, ov);
     obstacle_x_ = DeviceBuffer<Vec3>(ox);
     obstacle_v_ = DeviceBuffer<Vec3>(ov);
+    obstacle_prev_ = DeviceBuffer<Vec3>(ox);
     obstacle_indices_ = DeviceBuffer<uint32_t>(obstacles_.collision_indices);
     if (obstacles_.any_moving) upload_moving_vertices();
-    float reach = 0.0f;  // fastest obstacle point over the run's motions, per step
-    for (const ObstacleDef& d : obstacles_.defs) {
-      if (!d.motion) continue;
-      std::vector<Vec3> x, v;
-      obstacles_.pose_at(d.motion->start + scene_.time.dt, x, v);
-      for (const Vec3& u : v) reach = std::max(reach, length(u));
-    }
-    obstacle_reach_ = reach * float(scene_.time.dt) * 1.01f;
     // cudaMemcpy from pageable memory may return before the data has arrived: wait for it.
     CUDA_CHECK(cudaDeviceSynchronize());
 
     obstacle_tree_.allocate(uint32_t(obstacles_.num_collision_triangles()));
     obstacle_tree_.build(obstacle_x_.data(), obstacle_indices_.data(), stream_);
     cloth_.allocate(m.num_collision_triangles());
-    cloth_.build(st_->x[st_->cur].data(), cloth_indices_.data(), stream_);
+    cloth_.build(st_->x[st_->cur].data(), cloth_indices_, stream_);
     CUDA_CHECK(cudaStreamSynchronize(stream_));
   }
 
@@ -450,14 +297,14 @@ class CudaBackend final : public Backend {
   // The poses at the end of each of this call's steps (t + dt), uploaded once before its steps.
   void upload_poses(int n, uint64_t first_step) {
     std::vector<double> times(static_cast<size_t>(n));
-    for (int k = 0; k < n; ++k) times[size_t(k)] = double(first_step + uint64_t(k) + 1) * scene_.time.dt;
-    skinning_.upload(times, double(first_step) * scene_.time.dt, stream_);
+    for (int k = 0; k < n; ++k) times[size_t(k)] = double(first_step + uint64_t(k) + 1) * step_.dt;
+    skinning_.upload(times, stream_);
     if (moving_.empty()) return;
     std::vector<RigidPose> table(size_t(n) * moving_.size());
     for (int k = 0; k < n; ++k)
       for (size_t m = 0; m < moving_.size(); ++m)
         table[size_t(k) * moving_.size() + m] =
-            rigid_pose_at(obstacles_.defs[moving_[m]], double(first_step + uint64_t(k) + 1) * scene_.time.dt);
+            rigid_pose_at(obstacles_.defs[moving_[m]], double(first_step + uint64_t(k) + 1) * step_.dt);
     if (table.size() > pose_table_.size()) pose_table_.resize(table.size());
     CUDA_CHECK(cudaMemcpyAsync(pose_table_.data(), table.data(), table.size() * sizeof(RigidPose),
                                cudaMemcpyHostToDevice, stream_));
@@ -465,48 +312,17 @@ class CudaBackend final : public Backend {
   }
 
   StepView view(uint64_t step) {
-    StepView s = step_view_for(scene_, model_, step);
-    s.model.num_vertices = model_.num_vertices();
-    s.model.inv_mass = inv_mass_.data();
-    s.model.damping = damping_.data();
-    s.model.adj_offset = adj_offset_.data();
-    s.model.adj_other = adj_other_.data();
-    s.model.adj_rest = adj_rest_.data();
-    s.model.adj_k = adj_k_.data();
-    s.model.adj_kd = adj_kd_.data();
-    s.model.alias = alias_.data();
-    s.model.sew_group = sew_group_.size() > 0 ? sew_group_.data() : nullptr;
-    s.model.triangles = cloth_indices_.data();
-    s.model.tri_alias = tri_alias_.data();
-    s.model.edges = edges_.data();
-    s.model.num_edges = model_.num_edges();
-    s.model.num_triangles = model_.num_collision_triangles();
-    s.model.tri_edge_owner = tri_edge_owner_.data();
-    s.model.adj_rest_start = m_has_(adj_rest_start_);
-    if (attach_tri_.size() > 0) {
-      s.model.attach_slot = attach_slot_.data();
-      s.model.attach_tri = attach_tri_.data();
-      s.model.attach_bary = attach_bary_.data();
-      s.model.attach_offset = attach_offset_.data();
-      s.model.attach_lift = attach_lift_.data();
-      s.model.attach_k = attach_k_.data();
-      s.model.attach_kd = attach_kd_.data();
-    }
-    // The colouring: the vertices on the device, the loops' bounds on the host (ModelView).
-    s.model.color_vertices = color_vertices_.data();
-    s.model.color_offset = model_.color_offset.data();
-    s.model.num_colors = model_.color_offset.empty() ? 0u : uint32_t(model_.color_offset.size() - 1);
-    s.geom.obstacle_vertices = obstacle_x_.data();
-    s.geom.obstacle_velocities = obstacles_.any_moving ? obstacle_v_.data() : nullptr;
-    s.geom.obstacle_indices = obstacle_indices_.data();
-    s.geom.cloth_indices = cloth_indices_.data();
-    st_->wire(s);
-    s.mean_edge = model_.mean_edge;
-    s.cloth_contact = scene_.collision.cloth_cloth;
-    s.obstacle_bvh = obstacle_tree_.view();
-    s.cloth_bvh = cloth_.view();
-    s.obstacle_reach = step_reach_;
-    return s;
+    StepBuffers b;
+    b.model = model_view_;
+    b.obstacle_x = obstacle_x_.data();
+    b.obstacle_v = obstacle_v_.data();
+    b.obstacle_prev = obstacle_prev_.data();
+    b.obstacle_indices = obstacle_indices_.data();
+    b.num_obstacle_vertices = uint32_t(obstacle_x_.size());
+    b.bodies_move = obstacles_.any_moving;
+    b.obstacle_bvh = obstacle_tree_.view();
+    b.cloth_bvh = cloth_.view();
+    return make_step_view(in_, step, b, *st_);
   }
 
   BvhScene trace_scene() {
@@ -516,11 +332,12 @@ class CudaBackend final : public Backend {
     b.obstacle_indices = obstacle_indices_.data();
     if (scene_.collision.cloth_cloth) b.cloth = cloth_.view();
     b.cloth_positions = st_->x[st_->cur].data();
-    b.cloth_indices = cloth_indices_.data();
-    b.tri_alias = tri_alias_.data();
+    b.cloth_indices = cloth_indices_;
+    b.tri_alias = tri_alias_;
     return b;
   }
 
+  const BackendInput in_;
   const SceneDef& scene_;
   const ClothModel& model_;
   const ObstacleSet& obstacles_;
@@ -528,24 +345,20 @@ class CudaBackend final : public Backend {
   StepCounters* counters_host_ = nullptr;  // pinned
   int refits_since_build_ = 0;
   uint64_t call_first_ = 0;
-  float obstacle_reach_ = 0;  // rigid motions: the fastest point's move in a step
-  float step_reach_ = 0;      // this step's: the rigid reach or the skinned bodies' bound
   int obstacle_refits_since_build_ = 0;
 
-  DeviceBuffer<float> inv_mass_, damping_, adj_rest_, adj_k_, adj_kd_;
-  DeviceBuffer<uint32_t> adj_offset_, adj_other_, alias_, sew_group_, cloth_indices_, tri_alias_, edges_;
-  DeviceBuffer<uint8_t> tri_edge_owner_;
-  // Seams closing over time and attachments (empty when the scene has none).
-  DeviceBuffer<float> adj_rest_start_, attach_lift_, attach_k_, attach_kd_;
-  DeviceBuffer<uint32_t> attach_slot_, attach_tri_, color_vertices_;
-  DeviceBuffer<Vec3> attach_bary_, attach_offset_;
-  static const float* m_has_(const DeviceBuffer<float>& b) { return b.size() > 0 ? b.data() : nullptr; }
+  const StepSettings step_;
+  ModelView model_view_;                              // over model_buffers_
+  std::vector<std::shared_ptr<void>> model_buffers_;  // a DeviceBuffer per model array
+  const uint32_t* cloth_indices_ = nullptr;           // model_view_.triangles
+  const uint32_t* tri_alias_ = nullptr;
   std::unique_ptr<SimState<DeviceBuffer>> st_;
+  AnyIntegrator<DeviceBuffer> integrator_;
   StageTimes* times_ = nullptr;
   std::vector<cudaEvent_t> events_;  // stage boundaries of the step in flight (mark, book_times)
   std::vector<Stage> event_stage_;
   size_t used_ = 0;  // allocated in upload(), once the stream exists
-  DeviceBuffer<Vec3> obstacle_x_, obstacle_v_;
+  DeviceBuffer<Vec3> obstacle_x_, obstacle_v_, obstacle_prev_;
   DeviceBuffer<uint32_t> obstacle_indices_;
   std::vector<size_t> moving_;  // obstacle index of each moving obstacle
   DeviceBuffer<uint32_t> moving_world_index_, moving_pose_index_;
@@ -601,7 +414,7 @@ void cuda_pose_obstacles(const ObstacleSet& o, double t, std::vector<Vec3>& x, s
         hx[o.first_vertex[oi] + k] = hv[o.first_vertex[oi] + k] = make_vec3(NAN, NAN, NAN);
   DeviceBuffer<Vec3> dx(hx), dv(hv);
   DeviceSkinning skinning(o);
-  skinning.upload({t}, t, nullptr);
+  skinning.upload({t}, nullptr);
   skinning.pose(0, dx.data(), dv.data(), nullptr);
   x.resize(hx.size());
   v.resize(hv.size());

@@ -5,8 +5,8 @@
 // pins the two bit for bit on the host.
 // Skinned bodies: the host computes each step's joint matrices (ObstacleSet::skinned_joints, with
 // their rate of change) and uploads them; skin_obstacle_vertex (scene/skinned_mesh.h), the same
-// code the host's pose_at runs, skins each vertex on the device. The host bounds how far the body
-// moves in a step from the joint matrices alone (skinned_reach), since the device keeps the poses.
+// code the host's pose_at runs, skins each vertex on the device. How far the bodies move in a step
+// is measured on the device, as on the CPU (obstacle_reach, sim/step_view.h).
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -51,47 +51,6 @@ inline RigidPose rigid_pose_at(const ObstacleDef& def, double t) {
   p.omega = to_vec3(mo.angular_velocity) * float(M_PI / 180.0);
   p.moving = t >= mo.start ? 1u : 0u;
   return p;
-}
-
-// The ball around the bind-pose positions of the vertices a joint moves (radius < 0: none).
-struct JointBall {
-  Vec3 center;
-  float radius = -1.0f;
-};
-
-inline std::vector<JointBall> joint_balls(const SkinnedMesh& m) {
-  std::vector<Vec3> lo(m.joints.size(), make_vec3(INFINITY, INFINITY, INFINITY));
-  std::vector<Vec3> hi(m.joints.size(), make_vec3(-INFINITY, -INFINITY, -INFINITY));
-  for (const SkinnedVertex& v : m.vertices)
-    for (int k = 0; k < 4; ++k)
-      if (v.weight[k] > 0.0f) lo[v.joint[k]] = vmin(lo[v.joint[k]], v.rest), hi[v.joint[k]] = vmax(hi[v.joint[k]], v.rest);
-  std::vector<JointBall> balls(m.joints.size());
-  for (size_t j = 0; j < balls.size(); ++j) {
-    if (!(lo[j].x <= hi[j].x)) continue;
-    balls[j].center = (lo[j] + hi[j]) * 0.5f;
-    balls[j].radius = length(hi[j] - lo[j]) * 0.5f;
-  }
-  return balls;
-}
-
-// At most how far any vertex of a skinned body moves from the pose of joint matrices `before` to
-// that of `after`. A vertex moves by the weighted mean (weights >= 0, summing to 1) of its joints'
-// moves of it, and joint j moves a point p of its ball by |D c| + |D (p - c)| <= |D c| + |A| r,
-// with D = after - before, c and r the ball's centre and radius, A D's 3 x 3 part and |A| its
-// Frobenius norm (at least its largest singular value). Scaled by 1.01 like the CPU's reach.
-inline float skinned_reach(const std::vector<JointBall>& balls, const Affine* before, const Affine* after) {
-  float reach = 0.0f;
-  for (size_t j = 0; j < balls.size(); ++j) {
-    if (balls[j].radius < 0.0f) continue;
-    Affine d;
-    double norm2 = 0.0;
-    for (int k = 0; k < 12; ++k) {
-      d.m[k] = after[j].m[k] - before[j].m[k];
-      if (k % 4 != 3) norm2 += double(d.m[k]) * d.m[k];
-    }
-    reach = std::max(reach, length(affine_apply(d, balls[j].center)) + float(std::sqrt(norm2)) * balls[j].radius);
-  }
-  return reach * 1.01f + 1e-7f;
 }
 
 }  // namespace raycloth

@@ -135,6 +135,84 @@ bool panel_clear(const ClothModel& m, const std::vector<uint32_t>& ids, const st
   return true;
 }
 
+// A panel's vertices and triangles (model vertex numbers) and its mean normal.
+Vec3 panel_geometry(const ClothModel& m, const Piece& piece, std::vector<uint32_t>& pv, std::vector<uint32_t>& pt) {
+  pv.clear(), pt.clear();
+  for (uint32_t i = 0; i < piece.vertex_count; ++i) pv.push_back(piece.first_vertex + i);
+  Vec3 normal = make_vec3(0, 0, 0);
+  for (uint32_t t = piece.first_triangle; t < piece.first_triangle + piece.num_triangles; ++t) {
+    const uint32_t a = m.triangles[3 * t], b = m.triangles[3 * t + 1], c = m.triangles[3 * t + 2];
+    pt.insert(pt.end(), {a, b, c});
+    normal += cross(m.initial_positions[b] - m.initial_positions[a], m.initial_positions[c] - m.initial_positions[a]);
+  }
+  return length(normal) > 0 ? normal / length(normal) : kUp;
+}
+
+// Whether panels a and b (their collision triangles at positions x) cross each other or themselves.
+bool panels_cross(const ClothModel& m, const std::vector<Vec3>& x, uint32_t a, uint32_t b) {
+  CheckMesh mesh;
+  mesh.vertices = x;
+  for (uint32_t p : {std::min(a, b), std::max(a, b)}) {
+    const Piece& piece = m.pieces[p];
+    mesh.group_names.push_back(piece.name);
+    mesh.group_first_triangle.push_back(uint32_t(mesh.num_triangles()));
+    mesh.triangles.insert(mesh.triangles.end(), m.collision_triangles.begin() + 3 * piece.first_triangle,
+                          m.collision_triangles.begin() + 3 * (piece.first_triangle + piece.num_triangles));
+  }
+  CheckReport r;
+  check_cloth_crossings(mesh, r);
+  return r.crossings > 0;
+}
+
+// Panels of one garment that cross each other once each is clear of the body (a hood over a
+// sleeve, both moved out of the shoulder): the panel whose edge goes through moves on away from the
+// body's axis along its normal, 5 mm at a time while it stays clear of the body, up to
+// kMaxClearMove in all; failing that the other panel does. Pair by pair until none crosses or a pair
+// cannot be parted (then the start is refused as crossing, naming the two).
+template <class Clear>
+void separate_panels(ClothModel& m, const GarmentFitDef& g, std::vector<PanelFit>& fits, size_t first_fit, Vec3 axis,
+                     Clear&& clear) {
+  auto panel_index = [&](const std::string& name) {
+    for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p)
+      if (m.pieces[p].name == name) return int(p);
+    return -1;
+  };
+  for (uint32_t round = 0; round < 2 * g.num_panels; ++round) {
+    CheckReport r;
+    check_cloth_crossings(cloth_check_mesh(m, m.initial_positions), r);
+    if (r.crossings == 0) return;
+    const CrossingRecord& c = r.first_crossings.front();
+    const int pa = panel_index(c.edge_group), pb = panel_index(c.triangle_group);
+    if (pa < 0 || pb < 0 || pa == pb) return;
+    bool parted = false;
+    for (int p : {pa, pb}) {
+      std::vector<uint32_t> pv, pt;
+      Vec3 normal = panel_geometry(m, m.pieces[p], pv, pt);
+      Vec3 centre = make_vec3(0, 0, 0);
+      for (uint32_t i : pv) centre += m.initial_positions[i];
+      centre = centre / float(pv.size());
+      Vec3 out = centre - axis;
+      out.y = 0;
+      const float sign = dot(normal, out) < 0 ? -1.0f : 1.0f;  // away from the body's axis
+      PanelFit& fit = fits[first_fit + size_t(p - int(g.first_panel))];
+      const float step = 0.005f;
+      for (float d = step; std::fabs(fit.moved) + d <= float(kMaxClearMove) + 1e-6f; d += step) {
+        const Vec3 move = normal * (sign * d);
+        if (!clear(pv, pt, move)) continue;
+        std::vector<Vec3> x = m.initial_positions;
+        for (uint32_t i : pv) x[i] += move;
+        if (panels_cross(m, x, uint32_t(pa), uint32_t(pb))) continue;
+        m.initial_positions = x;
+        fit.moved += sign * d;
+        parted = true;
+        break;
+      }
+      if (parted) break;
+    }
+    if (!parted) return;
+  }
+}
+
 }  // namespace
 
 BodyFrame body_frame(const ObstacleSet& obstacles, size_t oi, const std::vector<Vec3>& posed, const Float3& front) {
@@ -221,17 +299,11 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
     CheckMesh body_mesh;
     body_mesh.vertices = posed;
     body_mesh.triangles = body.tris;
+    const size_t first_fit = fits.size();
     for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p) {
       const Piece& piece = m.pieces[p];
       std::vector<uint32_t> pv, pt;
-      for (uint32_t i = 0; i < piece.vertex_count; ++i) pv.push_back(piece.first_vertex + i);
-      Vec3 normal = make_vec3(0, 0, 0);
-      for (uint32_t t = piece.first_triangle; t < piece.first_triangle + piece.num_triangles; ++t) {
-        const uint32_t a = m.triangles[3 * t], b = m.triangles[3 * t + 1], c = m.triangles[3 * t + 2];
-        pt.insert(pt.end(), {a, b, c});
-        normal += cross(m.initial_positions[b] - m.initial_positions[a], m.initial_positions[c] - m.initial_positions[a]);
-      }
-      normal = length(normal) > 0 ? normal / length(normal) : kUp;
+      const Vec3 normal = panel_geometry(m, piece, pv, pt);
       const float step = 0.005f;
       float moved = 0;
       bool clear = false;
@@ -253,6 +325,9 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
       for (uint32_t i : pv) m.initial_positions[i] += normal * moved;
       fits.push_back({piece.name, moved});
     }
+    separate_panels(m, g, fits, first_fit, body_mid, [&](const std::vector<uint32_t>& pv, const std::vector<uint32_t>& pt, Vec3 move) {
+      return panel_clear(m, pv, pt, move, body, grid, body_mesh, clearance);
+    });
   }
   // Seam partners follow their representatives; the springs start from the new lengths.
   for (uint32_t i = 0; i < m.num_vertices(); ++i) m.initial_positions[i] = m.initial_positions[m.alias[i]];

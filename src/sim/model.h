@@ -31,42 +31,52 @@ struct Piece {
   uint32_t num_vertices() const { return vertex_count; }
 };
 
-// Plain pointers into a model's arrays: what the per-vertex functions read, on host or device.
+// The model's arrays that the step reads, declared once: ModelView's pointers, make_model_view (the
+// CPU's view of a ClothModel and the CUDA backend's copies) come from this list.
+// X(type, name in ModelView, ClothModel member)
+#define RAYCLOTH_MODEL_ARRAYS(X)                                                                             \
+  X(float, inv_mass, inv_mass)               /* 0 for pinned vertices */                                     \
+  X(float, damping, damping)                 /* 1/s, per vertex */                                           \
+  X(uint32_t, adj_offset, adj_offset)        /* CSR: springs of vertex i are [adj_offset[i], adj_offset[i+1]) */ \
+  X(uint32_t, adj_other, adj_other)                                                                          \
+  X(float, adj_rest, adj_rest)                                                                               \
+  X(float, adj_k, adj_k)                                                                                     \
+  X(float, adj_kd, adj_kd)                                                                                   \
+  X(float, adj_rest_start, adj_rest_start)   /* null unless seams close over time: rest lengths at the start */ \
+  X(uint32_t, alias, alias)                  /* vertices joined by a seam share one alias */                 \
+  /* Null unless seams are sewn from apart: per vertex the smallest vertex joined to it by welds and */      \
+  /* stitches. Features of one group are neighbours (sew_neighbours): the contact, the bound and the */      \
+  /* rays leave them alone, so that the two sides of a stitch close onto each other. */                     \
+  X(uint32_t, sew_group, sew_group)                                                                          \
+  X(uint32_t, triangles, collision_triangles) /* 3 per collision triangle (corners welded across seams) */   \
+  X(uint32_t, tri_alias, tri_alias)          /* alias of each collision-triangle corner */                   \
+  X(uint32_t, edges, edges)                  /* 2 per edge of the cloth surface */                           \
+  /* Per triangle: bit k set when it is the lowest-numbered triangle holding its edge k (corners k, */       \
+  /* k+1); bit 3 + k when it is the lowest-numbered one holding corner k. */                                 \
+  X(uint8_t, tri_edge_owner, tri_edge_owner)                                                                 \
+  /* Attachments: per vertex the attachment slot or kNoAttachment (null when there are none); per */         \
+  /* slot the obstacle triangle (world numbering), barycentric weights, the start position minus the */     \
+  /* body point at t = 0 (eased out while seams close), lift, stiffness, damping. */                         \
+  X(uint32_t, attach_slot, attach_slot)                                                                      \
+  X(uint32_t, attach_tri, attach_tri)                                                                        \
+  X(Vec3, attach_bary, attach_bary)                                                                          \
+  X(Vec3, attach_offset, attach_offset)                                                                      \
+  X(float, attach_lift, attach_lift)                                                                         \
+  X(float, attach_k, attach_k)                                                                               \
+  X(float, attach_kd, attach_kd)                                                                             \
+  /* The implicit integrator's colouring: the free representative vertices, colour by colour (no two */     \
+  /* of a colour share a spring), colour c being color_vertices[color_offset[c], color_offset[c+1]). */      \
+  X(uint32_t, color_vertices, color_vertices)
+
+// Plain pointers into a model's arrays (null for an empty one): what the per-vertex functions read,
+// on host or device.
 struct ModelView {
   uint32_t num_vertices = 0;
-  const float* inv_mass = nullptr;   // 0 for pinned vertices
-  const float* damping = nullptr;    // 1/s, per vertex
-  const uint32_t* adj_offset = nullptr;  // CSR: springs of vertex i are [adj_offset[i], adj_offset[i+1])
-  const uint32_t* adj_other = nullptr;
-  const float* adj_rest = nullptr;
-  const float* adj_k = nullptr;
-  const float* adj_kd = nullptr;
-  const uint32_t* alias = nullptr;       // vertices joined by a seam share one alias
-  // Null unless seams are sewn from apart: per vertex the smallest vertex joined to it by welds and
-  // stitches. Features of one group are neighbours (sew_neighbours): the contact, the bound and the
-  // rays leave them alone, so that the two sides of a stitch close onto each other.
-  const uint32_t* sew_group = nullptr;
-  const uint32_t* triangles = nullptr;   // 3 per collision triangle (corners welded across seams)
-  const uint32_t* tri_alias = nullptr;   // alias of each collision-triangle corner
-  const uint32_t* edges = nullptr;       // 2 per edge of the cloth surface
   uint32_t num_edges = 0;
-  uint32_t num_triangles = 0;            // collision triangles
-  const uint8_t* tri_edge_owner = nullptr;  // per triangle: bit k set when it is the lowest-numbered
-                                            // triangle holding its edge k (corners k, k+1); bit 3 + k
-                                            // when it is the lowest-numbered one holding corner k
-  const float* adj_rest_start = nullptr;    // null unless seams close over time: rest lengths at the start
-  // Attachments: per vertex the attachment slot or kNoAttachment (null when there are none); per
-  // slot the obstacle triangle (world numbering), barycentric weights, lift, stiffness, damping.
-  const uint32_t* attach_slot = nullptr;
-  const uint32_t* attach_tri = nullptr;
-  const Vec3* attach_bary = nullptr;
-  const Vec3* attach_offset = nullptr;  // start position minus body point at t = 0: eased out while seams close
-  const float* attach_lift = nullptr;
-  const float* attach_k = nullptr;
-  const float* attach_kd = nullptr;
-  // The implicit integrator's colouring: the free representative vertices, colour by colour (no
-  // two of a colour share a spring), colour c being color_vertices[color_offset[c], color_offset[c+1]).
-  const uint32_t* color_vertices = nullptr;
+  uint32_t num_triangles = 0;              // collision triangles
+#define RAYCLOTH_MODEL_POINTER(type, name, member) const type* name = nullptr;
+  RAYCLOTH_MODEL_ARRAYS(RAYCLOTH_MODEL_POINTER)
+#undef RAYCLOTH_MODEL_POINTER
   const uint32_t* color_offset = nullptr;  // host memory on every backend: the loops' bounds
   uint32_t num_colors = 0;
 };
@@ -92,7 +102,7 @@ struct ClothModel {
   // Seams sewn from apart: 2 vertices per stitch (each also a Seam spring of rest length 0), and the
   // scene seam each belongs to. Welded seams have none (their pairs share an alias).
   std::vector<uint32_t> stitches, stitch_seam;
-  std::vector<uint32_t> sew_group;  // see ModelView; empty when nothing is stitched
+  std::vector<uint32_t> sew_group;  // see RAYCLOTH_MODEL_ARRAYS; empty when nothing is stitched
   std::vector<Vec3> rest_positions;  // each panel's own shape (a pattern's plane, a mesh's OBJ coordinates)
   float sew_time = 0;                // seconds over which rest lengths go from adj_rest_start to adj_rest
   bool ease_gravity = false;         // gravity eases in over sew_time too (SewingDef::ease_gravity)
@@ -108,8 +118,8 @@ struct ClothModel {
   // The edges of the welded surface (`collision_triangles`), each once, smaller vertex first.
   std::vector<uint32_t> edges;
   float mean_edge = 0;  // mean length of `edges` at the start (metres): the bound's look-ahead scale
-  std::vector<uint8_t> tri_edge_owner;  // see ModelView
-  // The implicit integrator's colouring (see ModelView; greedy, in vertex order).
+  std::vector<uint8_t> tri_edge_owner;  // see RAYCLOTH_MODEL_ARRAYS
+  // The implicit integrator's colouring (see RAYCLOTH_MODEL_ARRAYS; greedy, in vertex order).
   std::vector<uint32_t> color_offset, color_vertices;
 
   uint32_t num_vertices() const { return uint32_t(initial_positions.size()); }
@@ -132,6 +142,23 @@ struct ClothModel {
   // The panel that holds vertex i.
   const Piece& piece_of(uint32_t i) const;
 };
+
+// The view of m wherever its arrays are: place(array) gives the address of the array's copy in the
+// backend's memory (on the CPU the array itself: ClothModel::view), for every array of
+// RAYCLOTH_MODEL_ARRAYS that is not empty.
+template <class Place>
+ModelView make_model_view(const ClothModel& m, Place&& place) {
+  ModelView v;
+  v.num_vertices = m.num_vertices();
+  v.num_edges = m.num_edges();
+  v.num_triangles = m.num_collision_triangles();
+#define RAYCLOTH_MODEL_PLACE(type, name, member) v.name = m.member.empty() ? nullptr : place(m.member);
+  RAYCLOTH_MODEL_ARRAYS(RAYCLOTH_MODEL_PLACE)
+#undef RAYCLOTH_MODEL_PLACE
+  v.color_offset = m.color_offset.data();
+  v.num_colors = m.color_offset.empty() ? 0u : uint32_t(m.color_offset.size() - 1);
+  return v;
+}
 
 // Obstacles merged into one world-space mesh; moving ones keep their local mesh and motion.
 struct ObstacleSet {

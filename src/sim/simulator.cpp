@@ -65,20 +65,21 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
   // inside at 0.8 mm and more, with either integrator), so each step is done in as many substeps as
   // keep the fastest body point within kImplicitMaxBodyMove per substep. The backend steps the
   // substeps; this class counts whole steps.
-  step_scene_ = scene_;
+  step_dt_ = scene_.time.dt;
+  step_iterations_ = scene_.time.iterations;
   if (!expl && obstacles_->any_moving) {
     const double speed = obstacles_->max_speed(scene_.time.duration, std::min(scene_.time.dt, 1.0 / 120.0));
     substeps_ = int(std::max(1.0, std::ceil(speed * scene_.time.dt / kImplicitMaxBodyMove - 1e-9)));
-    step_scene_.time.dt = scene_.time.dt / double(substeps_);
+    step_dt_ = scene_.time.dt / double(substeps_);
     // A substep's solve starts nearer its answer (k dt^2 / m is substeps^2 times smaller): the sweeps
     // are shared out among the substeps, at least kMinSubstepSweeps each.
-    step_scene_.time.iterations =
+    step_iterations_ =
         std::max(std::min(kMinSubstepSweeps, scene_.time.iterations), (scene_.time.iterations + substeps_ - 1) / substeps_);
     if (substeps_ > 1)
       spdlog::info("implicit integrator: {} substeps of {:g} s per step (the fastest body point moves at {:.3g} m/s)",
-                   substeps_, step_scene_.time.dt, speed);
+                   substeps_, step_dt_, speed);
   }
-  const BackendInput in{&step_scene_, model_.get(), obstacles_.get()};
+  const BackendInput in{&scene_, model_.get(), obstacles_.get(), {step_dt_, step_iterations_}};
   if (options.device == "cpu") {
     backend_ = make_cpu_backend(in);
   } else if (options.device == "cuda") {
@@ -108,7 +109,7 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
 // The backend again, over the model as it is now, from the state (x_, v_): a backend that takes
 // edits keeps the velocities; another starts from the model's start positions at rest.
 void Simulator::rebuild_backend() {
-  const BackendInput in{&step_scene_, model_.get(), obstacles_.get()};
+  const BackendInput in{&scene_, model_.get(), obstacles_.get(), {step_dt_, step_iterations_}};
   const bool cuda = backend_->name() == "cuda";
   backend_.reset();
   backend_ = cuda ? make_cuda_backend(in) : make_cpu_backend(in);
@@ -182,18 +183,7 @@ void Simulator::advance(int n) {
   if (r.bad_vertex >= 0) r.bad_step /= k;
   synced_ = false;
   last_hits_ = r.hits;
-  pushed_total_ += r.pushed;
-  clamped_total_ += r.clamped;
-  conflicts_total_ += r.conflicts;
-  push_clamped_total_ += r.push_clamped;
-  refreshes_total_ += r.refreshes;
-  partial_refreshes_total_ += r.partial_refreshes;
-  contact_pairs_total_ += r.contact_pairs;
-  contact_moved_total_ += r.contact_moved;
-  contact_rounds_total_ += r.contact_rounds;
-  bound_passes_total_ += r.bound_passes;
-  unconverged_total_ += r.unconverged;
-  max_residual_ = std::max(max_residual_, r.max_residual);
+  totals_.add(r.totals);
   if (r.bad_vertex >= 0) {
     steps_ = r.bad_step + 1;
     const std::vector<Vec3>& x = positions();
@@ -218,11 +208,9 @@ bool Simulator::bound_balls(std::vector<Vec3>& centre, std::vector<float>& radiu
 }
 
 void Simulator::save_state(ByteWriter& out) {
-  for (uint64_t v : {steps_, last_hits_, pushed_total_, clamped_total_, conflicts_total_, refreshes_total_,
-                     partial_refreshes_total_, contact_pairs_total_, contact_moved_total_, contact_rounds_total_,
-                     push_clamped_total_, bound_passes_total_, unconverged_total_})
-    out.u64(v);
-  out.f64(max_residual_);
+  out.u64(steps_);
+  out.u64(last_hits_);
+  out.pod(totals_);
   out.pod(times_);
   // Which stitches have been welded (the model's seam groups now).
   out.u64(stitches_welded_);
@@ -231,11 +219,9 @@ void Simulator::save_state(ByteWriter& out) {
 }
 
 void Simulator::restore_state(ByteReader& in) {
-  for (uint64_t* v : {&steps_, &last_hits_, &pushed_total_, &clamped_total_, &conflicts_total_, &refreshes_total_,
-                      &partial_refreshes_total_, &contact_pairs_total_, &contact_moved_total_, &contact_rounds_total_,
-                      &push_clamped_total_, &bound_passes_total_, &unconverged_total_})
-    *v = in.u64();
-  max_residual_ = in.f64();
+  steps_ = in.u64();
+  last_hits_ = in.u64();
+  in.pod(totals_);
   in.pod(times_);
   const uint64_t welded = in.u64();
   std::vector<uint32_t> alias;

@@ -14,8 +14,10 @@
 //   counters()                     the step's counters on the host (the GPU copies them back)
 //   end()                          x, v <- x_next, v_next
 //
-// A step is five named phases (run_step): integrate, respond, contact (sim/contact.h), bound
-// (sim/bound.h) and finish; run_steps runs n of them with the counters and the blow-up stop.
+// A step is five named phases (run_step): integrate (the integrator's own, sim/integrate/), respond,
+// contact (sim/contact.h), bound (sim/bound.h) and finish; run_steps runs n of them with the
+// counters and the blow-up stop. The integrator is a type with integrate() and after_response() and
+// a property, kLongSteps; no stage asks which one runs.
 //
 // The state both executors step is one type (sim/state.h). The CPU executor runs oneTBB loops and
 // casts with Embree (or the host BVH in tests); the CUDA executor launches kernels on one stream.
@@ -24,32 +26,12 @@
 #pragma once
 #include <cstdint>
 
-#include "raycloth/simulator.h"
-#include "sim/contact.h"
 #include "sim/bound.h"
+#include "sim/contact.h"
+#include "sim/stage_time.h"
 #include "sim/stages.h"
 
-#if defined(__CUDACC__)
-#define RC_LAMBDA __host__ __device__
-#else
-#define RC_LAMBDA
-#endif
-
 namespace raycloth {
-
-enum class Stage { Integrate, Update, Cast, Respond, Contact, Bound };
-
-// Books `seconds` to a stage's total (both executors time the same stages).
-inline void add_stage_time(StageTimes& t, Stage stage, double seconds) {
-  switch (stage) {
-    case Stage::Integrate: t.integrate += seconds; break;
-    case Stage::Update: t.update += seconds; break;
-    case Stage::Cast: t.cast += seconds; break;
-    case Stage::Respond: t.respond += seconds; break;
-    case Stage::Contact: t.contact += seconds; break;
-    case Stage::Bound: t.bound += seconds; break;
-  }
-}
 
 // The displacement bound's refresh, once the step has decided it (counters->refresh) and the
 // cloth's tree is at x: pass 0 as decided; a partial refresh that left a marked vertex short of
@@ -75,7 +57,7 @@ void run_contact_solve(Exec& ex, const StepView& s) {
   // Where no body moves, nothing pushes one layer of cloth into the next but the cloth itself, and
   // the paper's one-sided response with the bound keeps it clean (every static scene is checked
   // exactly): the pair search, which would double the default scene's step, is left out.
-  if (!(s.obstacle_reach > 0.0f)) return;
+  if (!s.bodies_move) return;
   ex.for_each(Stage::Contact, n, [s] RC_LAMBDA(uint32_t i) { stage_contact_reach(s, i); });
   const uint32_t slots = contact_slots(s.model);
   ex.for_each(Stage::Contact, n, [s] RC_LAMBDA(uint32_t i) { stage_contact_find_vertex(s, i); });
@@ -98,7 +80,7 @@ void run_contact_solve(Exec& ex, const StepView& s) {
 // kBoundPasses in sim/bound.h): each a full refresh at where the last clamp left the cloth, then
 // the clamp along the rest of the move.
 template <class Exec>
-void run_bound_passes(Exec& ex, const StepView& s) {
+void run_bound_passes(Exec& ex, const StepView& s, bool every_clamp) {
   StepCounters* c = s.counters;
   const uint32_t n = s.model.num_vertices;
   StepView m = s;
@@ -108,54 +90,28 @@ void run_bound_passes(Exec& ex, const StepView& s) {
     ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_bound_pass_move(s, i); });
     ex.refit_cloth_at(s.x_mid, c);
     run_bound_refresh(ex, m);
-    ex.sum(Stage::Bound, n, [s, m] RC_LAMBDA(uint32_t i) { return stage_bound_pass_clamp(s, m, i); }, &c->held);
+    ex.sum(Stage::Bound, n, [s, m, every_clamp] RC_LAMBDA(uint32_t i) { return stage_bound_pass_clamp(s, m, i, every_clamp); },
+           &c->held);
   }
 }
 
-// Integrate: the proposed x', v' from eq. (2) and the paper's explicit eq. (3), or from implicit
-// Euler by vertex block descent (sim/physics.h: sweeps over the colours, each colour in parallel);
-// then the paper's ray per vertex along its move.
-template <class Exec>
-void run_integrate(Exec& ex, const StepView& s) {
-  const uint32_t n = s.model.num_vertices;
-  if (!s.implicit) {
-    ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_integrate(s, i); });
-    return;
-  }
-  ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_begin(s, i); });
-  ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_plane(s, i); });
-  for (uint32_t sweep = 0; sweep < s.iterations; ++sweep) {
-    const bool last = sweep + 1 == s.iterations;
-    ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_sweep_save(s, i); });
-    for (uint32_t c = 0; c < s.model.num_colors; ++c) {
-      const uint32_t first = s.model.color_offset[c], count = s.model.color_offset[c + 1] - first;
-      ex.for_each(Stage::Integrate, count, [s, first, last] RC_LAMBDA(uint32_t k) {
-        stage_implicit_vertex(s, s.model.color_vertices[first + k], last);
-      });
-    }
-    const float omega = chebyshev_omega(sweep);
-    if (!last) ex.for_each(Stage::Integrate, n, [s, omega] RC_LAMBDA(uint32_t i) { stage_sweep_accelerate(s, i, omega); });
-  }
-  ex.for_each(Stage::Integrate, 1, [s] RC_LAMBDA(uint32_t) { stage_implicit_converged(s); });
-  ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_end(s, i); });
-}
-
-// Respond: the collision buffer from the rays (two casts), the paper's response, then the
-// obstacles at t + dt.
-template <class Exec>
-void run_respond(Exec& ex, const StepView& s) {
+// Respond: the collision buffer from the rays (two casts), the paper's response (and what the
+// integrator does after it), then the obstacles at t + dt.
+template <class Exec, class Integrator>
+void run_respond(Exec& ex, Integrator& integrator, const StepView& s) {
   StepCounters* c = s.counters;
   const uint32_t n = s.model.num_vertices;
   ex.cast(s.rays, n, s.hits);
   ex.for_each(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { stage_respond_velocity(s, i); });
   ex.cast(s.rays, n, s.hits);
   ex.sum(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { return stage_respond_contact(s, i); }, &c->hits);
+  integrator.after_response(ex, s);
   ex.for_each(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { stage_obstacles(s, i); });
 }
 
 // Bound: decide and run the refresh, clamp every vertex into its ball, go on where a pushed vertex
 // was held back (run_bound_passes), and count what the bound did to the pushes.
-template <class Exec>
+template <class Integrator, class Exec>
 void run_bound(Exec& ex, const StepView& s) {
   StepCounters* c = s.counters;
   const uint32_t n = s.model.num_vertices;
@@ -164,14 +120,15 @@ void run_bound(Exec& ex, const StepView& s) {
   ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_decide_refresh(s); });
   ex.refit_cloth(c);
   run_bound_refresh(ex, s);
-  // Further passes only where a body moves, or with the implicit integrator (whose steps are long:
-  // a vertex falling freely may move farther in one than its ball allows).
-  const bool moving = s.obstacle_reach > 0.0f || s.implicit;
+  // Further passes only where a body moves, or with an integrator of long steps (a vertex falling
+  // freely may move farther in one than its ball allows).
+  constexpr bool kEveryClamp = Integrator::kLongSteps;
+  const bool moving = s.bodies_move || kEveryClamp;
   if (moving) ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_save_goal(s, i); });
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_clamp(s, i); }, &c->clamped);
   if (moving) {
-    ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_held(s, i); }, &c->held);
-    run_bound_passes(ex, s);
+    ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_held(s, i, kEveryClamp); }, &c->held);
+    run_bound_passes(ex, s, kEveryClamp);
   }
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_push_clamped(s, i); }, &c->push_clamped);
   ex.sum(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { return stage_conflict(s, i); }, &c->conflicts);
@@ -187,13 +144,15 @@ void run_finish(Exec& ex, const StepView& s) {
 }
 
 // One step: the named phases in order, the same on every backend.
-template <class Exec>
-void run_step(Exec& ex, uint64_t step) {
+template <class Exec, class Integrator>
+void run_step(Exec& ex, Integrator& integrator, uint64_t step) {
   const StepView s = ex.begin(step);
-  run_integrate(ex, s);
-  run_respond(ex, s);
+  if (s.bodies_move)
+    ex.for_each(Stage::Update, s.num_obstacle_vertices, [s] RC_LAMBDA(uint32_t i) { stage_obstacle_move(s, i); });
+  integrator.integrate(ex, s);
+  run_respond(ex, integrator, s);
   run_contact_solve(ex, s);
-  run_bound(ex, s);
+  run_bound<Integrator>(ex, s);
   run_finish(ex, s);
   ex.end();
 }
@@ -201,12 +160,12 @@ void run_step(Exec& ex, uint64_t step) {
 // n steps from step `first_step`, stopping after one that blew up: the loop, the counters and the
 // blow-up stop, the same for every backend. counters() gives the step's counters on the host (the
 // GPU copies them back: the only transfer per step).
-template <class Exec>
-StepResult run_steps(Exec& ex, int n, uint64_t first_step) {
+template <class Exec, class Integrator>
+StepResult run_steps(Exec& ex, Integrator& integrator, int n, uint64_t first_step) {
   StepResult result;
   for (int k = 0; k < n; ++k) {
     const uint64_t step_index = first_step + uint64_t(k);
-    run_step(ex, step_index);
+    run_step(ex, integrator, step_index);
     const StepCounters& c = ex.counters();
     add_step(result, c);
     if (c.bad_vertex != 0xFFFFFFFFu) {

@@ -1,0 +1,52 @@
+// What a run's steps did, summed over its steps: the step counters a run reports, declared once.
+// Each line of RAYCLOTH_SUMMED_COUNTERS makes a counter of the step (StepCounters, sim/step_view.h),
+// its sum over a batch and over the run (RunTotals), its place in checkpoints and its name in
+// run.json and in the Python module's stats. A new one is a line here plus the stage that counts it.
+#pragma once
+#include <cstdint>
+
+namespace raycloth {
+
+// X(name, name in run.json and stats, run.json section): summed over the steps.
+#define RAYCLOTH_SUMMED_COUNTERS(X)                                                                          \
+  X(pushed, "pushed_by_obstacles", "contact")     /* vertices pushed out of (or off) an obstacle at t + dt */ \
+  X(clamped, "clamped_by_bound", "contact")       /* vertices whose move the bound shortened */              \
+  X(conflicts, "obstacle_conflicts", "contact")   /* vertices the bound left inside an obstacle it had been pushed out of */ \
+  X(push_clamped, "push_shortened_by_bound", "contact") /* vertices whose push out of an obstacle the bound shortened */ \
+  X(contact_pairs, "cloth_contact_pairs", "contact")    /* cloth pairs within the thickness (sim/contact.h) */ \
+  X(contact_moved, "moved_by_contact_solve", "contact") /* vertices the contact solve moved */               \
+  X(contact_rounds, "contact_solve_rounds", "contact")  /* rounds of the position solve that found a pair to act on */ \
+  X(bound_passes, "bound_passes", "contact")      /* further passes of the bound (run_bound_passes) */       \
+  X(unconverged, "unconverged_steps", "integrator") /* 1 when the implicit solve's last sweep exceeded the tolerance */
+
+// The sums over a batch of steps, or over a run (Simulator::totals).
+struct RunTotals {
+#define RAYCLOTH_TOTAL_FIELD(name, json, section) uint64_t name = 0;
+  RAYCLOTH_SUMMED_COUNTERS(RAYCLOTH_TOTAL_FIELD)
+#undef RAYCLOTH_TOTAL_FIELD
+  // Derived from the step's counters (add_step, sim/step_view.h):
+  uint64_t refreshes = 0;          // steps that recomputed the displacement bound of every vertex
+  uint64_t partial_refreshes = 0;  // steps that recomputed it for the vertices that needed room
+  double max_residual = 0;         // implicit integrator: the largest last-sweep step of any step (metres)
+
+  void add(const RunTotals& o) {
+#define RAYCLOTH_TOTAL_ADD(name, json, section) name += o.name;
+    RAYCLOTH_SUMMED_COUNTERS(RAYCLOTH_TOTAL_ADD)
+#undef RAYCLOTH_TOTAL_ADD
+    refreshes += o.refreshes;
+    partial_refreshes += o.partial_refreshes;
+    max_residual = max_residual > o.max_residual ? max_residual : o.max_residual;
+  }
+};
+
+// f(name in run.json, section, value) for every total, as run.json and the stats report them.
+template <class F>
+void for_each_total(const RunTotals& t, F&& f) {
+#define RAYCLOTH_TOTAL_VISIT(name, json, section) f(json, section, t.name);
+  RAYCLOTH_SUMMED_COUNTERS(RAYCLOTH_TOTAL_VISIT)
+#undef RAYCLOTH_TOTAL_VISIT
+  f("bound_refreshes", "contact", t.refreshes);
+  f("bound_partial_refreshes", "contact", t.partial_refreshes);
+}
+
+}  // namespace raycloth

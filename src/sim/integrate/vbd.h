@@ -1,0 +1,289 @@
+// The implicit integrator: implicit Euler by Vertex Block Descent, with the bodies' contact inside
+// the solve (one plane per vertex) and Chebyshev acceleration of the sweeps. It owns its scratch
+// (VbdScratch) and its settings (sweeps, tolerance); sim/step.h calls integrate() and
+// after_response().
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "sim/integrate/common.h"
+#include "sim/obstacle_query.h"
+#include "sim/stage_time.h"
+
+namespace raycloth {
+
+// ---- The implicit integrator: implicit Euler by Vertex Block Descent ----------------------------
+// (Chen, Macklin, Yuksel et al., "Vertex Block Descent", TOG 43(4), 2024.) Implicit Euler asks for
+// the x' that makes
+//   G_i(x') = m_i/dt^2 (x'_i - y_i) + m_i c_i/dt (x'_i - x_i) - F_i(x', v') = 0,   v' = (x' - x)/dt,
+// with y = x + dt v + dt^2 g the inertial target, c the viscous damping and F the springs of eq. (2)
+// (and their damping along the spring) plus an attachment's pull. Block descent sweeps the vertices
+// one colour at a time (no two vertices of a colour share a spring) and takes, for each, one Newton
+// step on its own 3x3 block with the others held: dx_i = -H_i^{-1} G_i, with
+//   H_i = (m_i/dt^2 + m_i c_i/dt) I + sum_springs [k (d d^T + max(0, 1 - l/|x_j - x_i|)(I - d d^T))
+//         + k_d/dt d d^T] (+ (k_a + k_ad/dt) I for an attachment),
+// the spring term's transverse part clamped at 0 so that H_i stays positive definite. Each such
+// step lowers the incremental potential, so a sweep never diverges whatever dt is.
+struct Sym3 {
+  float xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0;
+};
+
+RC_HD void add_outer(Sym3& h, Vec3 d, float s) {
+  h.xx += s * d.x * d.x, h.xy += s * d.x * d.y, h.xz += s * d.x * d.z;
+  h.yy += s * d.y * d.y, h.yz += s * d.y * d.z, h.zz += s * d.z * d.z;
+}
+
+RC_HD void add_identity(Sym3& h, float s) { h.xx += s, h.yy += s, h.zz += s; }
+
+// x with h x = b (h symmetric positive definite), by the adjugate; 0 when h is singular.
+RC_HD Vec3 solve_sym3(const Sym3& h, Vec3 b) {
+  const float c00 = h.yy * h.zz - h.yz * h.yz, c01 = h.xz * h.yz - h.xy * h.zz, c02 = h.xy * h.yz - h.xz * h.yy;
+  const float det = h.xx * c00 + h.xy * c01 + h.xz * c02;
+  if (!(fabsf(det) > 0.0f)) return make_vec3(0, 0, 0);
+  const float c11 = h.xx * h.zz - h.xz * h.xz, c12 = h.xy * h.xz - h.xx * h.yz, c22 = h.xx * h.yy - h.xy * h.xy;
+  const float inv = 1.0f / det;
+  return make_vec3((c00 * b.x + c01 * b.y + c02 * b.z) * inv, (c01 * b.x + c11 * b.y + c12 * b.z) * inv,
+                   (c02 * b.x + c12 * b.y + c22 * b.z) * inv);
+}
+
+// One block-descent step of vertex i (free): its new position, given the others' current guesses
+// xn (its own included), its start x, v, the inertial target y_i, and an attachment's target point
+// and velocity with stiffness ka and damping kad (ka = kad = 0 for none).
+RC_HD Vec3 vbd_vertex(const ModelView& m, const Vec3* x, const Vec3* xn, uint32_t i, Vec3 y, float dt, float sew,
+                      Vec3 attach_target, Vec3 attach_velocity, float ka, float kad, Sym3* h_out = nullptr) {
+  const float mass = 1.0f / m.inv_mass[i];
+  const float inertia = mass / (dt * dt), drag = mass * m.damping[i] / dt;
+  const Vec3 xi = xn[i], vi = (xi - x[i]) / dt;
+  Vec3 g = (xi - y) * inertia + (xi - x[i]) * drag;  // the gradient of the incremental potential
+  Sym3 h;
+  add_identity(h, inertia + drag);
+  for (uint32_t e = m.adj_offset[i]; e < m.adj_offset[i + 1]; ++e) {
+    const uint32_t j = m.adj_other[e];
+    const Vec3 d = xn[j] - xi;
+    const float len = length(d);
+    if (!(len > 1e-12f)) continue;
+    const Vec3 dir = d / len;
+    float rest = m.adj_rest[e];
+    if (m.adj_rest_start && sew < 1.0f) rest += (m.adj_rest_start[e] - rest) * (1.0f - sew);
+    const float k = m.adj_k[e], kd = m.adj_kd[e];
+    float mag = k * spring_stretch(len, rest, m.adj_rest[e]);
+    if (kd != 0.0f) mag += kd * dot((xn[j] - x[j]) / dt - vi, dir);
+    g -= dir * mag;
+    const float transverse = len > rest ? 1.0f - rest / len : 0.0f;
+    add_identity(h, k * transverse);
+    add_outer(h, dir, k * (1.0f - transverse) + kd / dt);
+  }
+  if (ka != 0.0f || kad != 0.0f) {
+    g -= (attach_target - xi) * ka + (attach_velocity - vi) * kad;
+    add_identity(h, ka + kad / dt);
+  }
+  if (h_out) *h_out = h;
+  return xi - solve_sym3(h, g);
+}
+
+// Contact with a body inside the block step: the vertex's new position y (from vbd_vertex, whose
+// block Hessian is h) is kept on the outer side of the plane n . p >= offset, the body's tangent
+// plane lifted by the thickness. Where y lies behind it, the block's minimiser on the plane is
+//   z = y + H^-1 n lambda,  lambda = (offset - n . y) / (n^T H^-1 n),
+// lambda being the normal force the body gives; then Coulomb friction: the vertex's slide along the
+// plane relative to the surface (start x, surface velocity w) is taken off as far as mu lambda can,
+// the force to stop a slide u being inertia |u| (inertia: m/dt^2 + m c/dt, the block's own term:
+// the cloth around slides with the vertex, so its springs do not resist the slide; counting them,
+// a sheet on a slope slid as if there were no friction). A vertex in front of the plane is untouched.
+RC_HD Vec3 plane_project(Vec3 y, Vec3 x, const Sym3& h, Vec3 n, float offset, Vec3 w, float dt, float mu, float inertia) {
+  const float gap = offset - dot(n, y);
+  if (!(gap > 0.0f)) return y;
+  const Vec3 hn = solve_sym3(h, n);
+  const float nhn = dot(n, hn);
+  if (!(nhn > 0.0f)) return y;
+  const float lambda = gap / nhn;
+  Vec3 z = y + hn * lambda;
+  Vec3 u = z - x - w * dt;
+  u -= n * dot(n, u);
+  const float slide = length(u);
+  if (slide > 0.0f && inertia > 0.0f) z -= u * fminf(1.0f, mu * lambda / (inertia * slide));
+  return z;
+}
+
+// The integrator's own view: its settings and its scratch arrays (VbdScratch).
+struct VbdView {
+  uint32_t iterations = 10;
+  float tolerance = 1e-4f;
+  Vec3* x_sweep = nullptr;         // the iterate before the last sweep
+  Vec3* x_sweep_prev = nullptr;    // and the one before that (Chebyshev acceleration)
+  Vec3* plane_normal = nullptr;    // the body plane each vertex is kept above (0 normal: none),
+  Vec3* plane_velocity = nullptr;  // the surface's velocity there,
+  float* plane_offset = nullptr;   // and the plane's offset (n . p >= offset)
+};
+
+// The stages: every vertex starts at its inertial target
+// y = x + dt v + dt^2 g (a pinned one at x)...
+RC_HD Vec3 inertial_target(const StepView& s, uint32_t i) {
+  const float dt = s.ctx.dt;
+  return s.x[i] + s.v[i] * dt + s.ctx.gravity * (dt * dt);
+}
+
+RC_HD void stage_implicit_begin(const StepView& s, uint32_t i) {
+  s.x_next[i] = s.model.inv_mass[i] == 0.0f || !is_representative(s.model, i) ? s.x[i] : inertial_target(s, i);
+}
+
+// ...then the colours are swept `iterations` times, one block-descent step per free vertex. In the
+// last sweep the largest step taken is kept (counters->residual): how far from converged it was.
+RC_HD void stage_implicit_vertex(const StepView& s, const VbdView& v, uint32_t i, bool last) {
+  if (s.model.inv_mass[i] == 0.0f) return;
+  Vec3 target = make_vec3(0, 0, 0), target_v = make_vec3(0, 0, 0);
+  float ka = 0.0f, kad = 0.0f;
+  attachment_target(s, i, target, target_v, ka, kad);
+  Sym3 h;
+  Vec3 next = vbd_vertex(s.model, s.x, s.x_next, i, inertial_target(s, i), s.ctx.dt, s.ctx.sew, target, target_v, ka, kad, &h);
+  const Vec3 n = v.plane_normal[i];
+  if (n.x != 0.0f || n.y != 0.0f || n.z != 0.0f)
+    next = plane_project(next, s.x[i], h, n, v.plane_offset[i], v.plane_velocity[i], s.ctx.dt, s.coll.friction,
+                         (1.0f / s.model.inv_mass[i]) * (1.0f / s.ctx.dt + s.model.damping[i]) / s.ctx.dt);
+  if (last) atomic_max_nonneg(&s.counters->residual, length(next - s.x_next[i]));
+  s.x_next[i] = next;
+}
+
+// Chebyshev acceleration of the sweeps (Wang, "A Chebyshev semi-iterative approach for accelerating
+// projective and position-based dynamics", TOG 34(6), 2015; the vertex block descent paper uses it
+// too): after sweep k the iterate is pushed on to omega_k (x_hat - x_{k-1}) + x_{k-1}, with
+// omega_1 = 1, omega_2 = 2 / (2 - rho^2), omega_{k+1} = 4 / (4 - rho^2 omega_k), rho the estimated
+// spectral radius of one sweep. kChebyshevRho was chosen on the peers' scene (docs/performance.md).
+inline constexpr float kChebyshevRho = 0.9f;
+
+RC_HD float chebyshev_omega(uint32_t sweep) {
+  float omega = 1.0f;
+  for (uint32_t k = 1; k <= sweep; ++k)
+    omega = k == 1 ? 2.0f / (2.0f - kChebyshevRho * kChebyshevRho) : 4.0f / (4.0f - kChebyshevRho * kChebyshevRho * omega);
+  return omega;
+}
+
+RC_HD void stage_sweep_save(const StepView& s, const VbdView& v, uint32_t i) { v.x_sweep[i] = s.x_next[i]; }
+
+// omega: chebyshev_omega(sweep), computed once per sweep by the caller (1 for the first).
+RC_HD void stage_sweep_accelerate(const StepView& s, const VbdView& v, uint32_t i, float omega) {
+  if (s.model.inv_mass[i] == 0.0f || !is_representative(s.model, i)) return;
+  if (omega != 1.0f) s.x_next[i] = v.x_sweep_prev[i] + (s.x_next[i] - v.x_sweep_prev[i]) * omega;
+  v.x_sweep_prev[i] = v.x_sweep[i];
+}
+
+// One thread, after the sweeps: whether the last one still moved a vertex more than the tolerance.
+RC_HD void stage_implicit_converged(const StepView& s, const VbdView& v) {
+  s.counters->unconverged = float_from_bits(s.counters->residual) > v.tolerance ? 1u : 0u;
+}
+
+// ...and the velocity is the move over dt.
+RC_HD void stage_implicit_end(const StepView& s, uint32_t i) {
+  if (s.model.inv_mass[i] == 0.0f) {
+    s.x_next[i] = s.x[i];
+    s.v_next[i] = make_vec3(0, 0, 0);
+  } else {
+    s.v_next[i] = (s.x_next[i] - s.x[i]) / s.ctx.dt;
+  }
+  finish_integrate(s, i);
+}
+
+// The implicit integrator's contact with the bodies inside the solve (after the offset contact of
+// "Offset Geometric Contact", TOG 44(4), 2025, reduced to one plane per vertex): before the sweeps,
+// every free vertex that a body at t + dt lies within reach of takes the plane tangent to the body
+// at its nearest point, lifted by the thickness; every sweep keeps it on the plane's outer side, with
+// friction (plane_project). So the springs feel the body while the solve runs (docs/performance.md
+// has the strain without it). The response, the contact solve and the bound still follow,
+// unchanged: they make the guarantee. A vertex inside a body at t + dt gets no plane (the contact
+// solve pushes it out).
+RC_HD void stage_implicit_plane(const StepView& s, const VbdView& v, uint32_t i) {
+  v.plane_normal[i] = make_vec3(0, 0, 0);
+  if (s.model.inv_mass[i] == 0.0f || !is_representative(s.model, i) || s.obstacle_bvh.num_prims == 0) return;
+  const Vec3 x = s.x[i];
+  const float reach = s.coll.thickness + s.coll.tolerance + length(inertial_target(s, i) - x) + obstacle_reach(s);
+  const ObstaclePoint q = nearest_obstacle_point(s, x, reach);
+  if (!q.found) return;
+  const Vec3 face = triangle_normal(s.geom.obstacle_vertices, s.geom.obstacle_indices, q.prim);
+  const DVec3 d = dvec(x) - q.point;
+  if (ddot(d, dvec(face)) < 0.0) return;
+  const double dist = sqrt(q.dist2);
+  const Vec3 n = dist > 1e-9 ? make_vec3(float(d.x / dist), float(d.y / dist), float(d.z / dist)) : face;
+  v.plane_normal[i] = n;
+  v.plane_offset[i] = float(ddot(dvec(n), q.point)) + s.coll.thickness;
+  Vec3 w = make_vec3(0, 0, 0);
+  if (s.geom.obstacle_velocities) {
+    const uint32_t* t = s.geom.obstacle_indices + 3 * q.prim;
+    const Vec3* ov = s.geom.obstacle_velocities;
+    w = ov[t[0]] * float(q.wa) + ov[t[1]] * float(q.wb) + ov[t[2]] * float(q.wc);
+  }
+  v.plane_velocity[i] = w;
+}
+
+// Where the response acted, the position follows the velocity it left (friction included), as the
+// explicit step's x' = x + dt v' does; otherwise the cloth would slide within a long step as if
+// there were no friction.
+RC_HD void stage_follow_response(const StepView& s, uint32_t i) {
+  if (s.contacts[i].w >= 0.0f && s.model.inv_mass[i] != 0.0f) s.x_next[i] = s.x[i] + s.v_next[i] * s.ctx.dt;
+}
+
+// The scratch arrays in the backend's memory (HostArray or DeviceBuffer), sized for n vertices.
+template <template <class> class Array>
+struct VbdScratch {
+  Array<Vec3> x_sweep, x_sweep_prev, plane_normal, plane_velocity;
+  Array<float> plane_offset;
+  explicit VbdScratch(size_t n) {
+    const std::vector<Vec3> zero(n, Vec3{});
+    x_sweep = Array<Vec3>(zero);
+    x_sweep_prev = Array<Vec3>(zero);
+    plane_normal = Array<Vec3>(zero);
+    plane_velocity = Array<Vec3>(zero);
+    plane_offset = Array<float>(std::vector<float>(n, 0.0f));
+  }
+  VbdView view(uint32_t iterations, float tolerance) {
+    return {iterations, tolerance, x_sweep.data(), x_sweep_prev.data(), plane_normal.data(), plane_velocity.data(),
+            plane_offset.data()};
+  }
+};
+
+// The integrator of sim/step.h.
+template <template <class> class Array>
+class VertexBlockDescent {
+ public:
+  // Its steps are long: a vertex falling freely may move farther in one than its ball allows, so
+  // the bound's further passes always run and every clamped vertex is held back by it.
+  static constexpr bool kLongSteps = true;
+
+  VertexBlockDescent(size_t n, uint32_t iterations, float tolerance)
+      : scratch_(n), iterations_(iterations), tolerance_(tolerance) {}
+
+  // Starts at the inertial target, takes the body planes, sweeps the colours `iterations` times
+  // (each colour in parallel), and takes v' = (x' - x) / dt.
+  template <class Exec>
+  void integrate(Exec& ex, const StepView& s) {
+    const VbdView v = scratch_.view(iterations_, tolerance_);
+    const uint32_t n = s.model.num_vertices;
+    ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_begin(s, i); });
+    ex.for_each(Stage::Integrate, n, [s, v] RC_LAMBDA(uint32_t i) { stage_implicit_plane(s, v, i); });
+    for (uint32_t sweep = 0; sweep < v.iterations; ++sweep) {
+      const bool last = sweep + 1 == v.iterations;
+      ex.for_each(Stage::Integrate, n, [s, v] RC_LAMBDA(uint32_t i) { stage_sweep_save(s, v, i); });
+      for (uint32_t c = 0; c < s.model.num_colors; ++c) {
+        const uint32_t first = s.model.color_offset[c], count = s.model.color_offset[c + 1] - first;
+        ex.for_each(Stage::Integrate, count, [s, v, first, last] RC_LAMBDA(uint32_t k) {
+          stage_implicit_vertex(s, v, s.model.color_vertices[first + k], last);
+        });
+      }
+      const float omega = chebyshev_omega(sweep);
+      if (!last) ex.for_each(Stage::Integrate, n, [s, v, omega] RC_LAMBDA(uint32_t i) { stage_sweep_accelerate(s, v, i, omega); });
+    }
+    ex.for_each(Stage::Integrate, 1, [s, v] RC_LAMBDA(uint32_t) { stage_implicit_converged(s, v); });
+    ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_end(s, i); });
+  }
+
+  template <class Exec>
+  void after_response(Exec& ex, const StepView& s) {
+    ex.for_each(Stage::Respond, s.model.num_vertices, [s] RC_LAMBDA(uint32_t i) { stage_follow_response(s, i); });
+  }
+
+ private:
+  VbdScratch<Array> scratch_;
+  uint32_t iterations_;
+  float tolerance_;
+};
+
+}  // namespace raycloth

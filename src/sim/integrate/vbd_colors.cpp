@@ -1,0 +1,36 @@
+// The implicit integrator's colouring of the model (vbd_colors.h).
+#include "sim/integrate/vbd_colors.h"
+
+#include <algorithm>
+#include <vector>
+
+namespace raycloth {
+
+void color_vertices(ClothModel& m) {
+  const uint32_t n = m.num_vertices();
+  std::vector<uint32_t> color(n, 0xFFFFFFFFu);
+  std::vector<uint32_t> used;
+  uint32_t colors = 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    if (!m.alias.empty() && m.alias[i] != i) continue;
+    used.assign(colors + 1, 0u);
+    for (uint32_t k = m.adj_offset[i]; k < m.adj_offset[i + 1]; ++k) {
+      const uint32_t c = color[m.adj_other[k]];
+      if (c != 0xFFFFFFFFu) used[c] = 1u;
+    }
+    uint32_t c = 0;
+    while (used[c]) ++c;
+    color[i] = c;
+    colors = std::max(colors, c + 1);
+  }
+  m.color_offset.assign(colors + 1, 0u);
+  for (uint32_t i = 0; i < n; ++i)
+    if (color[i] != 0xFFFFFFFFu) ++m.color_offset[color[i] + 1];
+  for (uint32_t c = 0; c < colors; ++c) m.color_offset[c + 1] += m.color_offset[c];
+  m.color_vertices.assign(m.color_offset.back(), 0u);
+  std::vector<uint32_t> at(m.color_offset.begin(), m.color_offset.end() - 1);
+  for (uint32_t i = 0; i < n; ++i)
+    if (color[i] != 0xFFFFFFFFu) m.color_vertices[at[color[i]]++] = i;
+}
+
+}  // namespace raycloth
