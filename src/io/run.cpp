@@ -307,7 +307,7 @@ class Run {
 RunReport run_scene(const SceneDef& scene_in, const RunOptions& opt) {
   const SceneDef scene = scene_with_options(scene_in, opt);
   Simulator sim(scene, opt.sim);  // every input check happens here, before anything is written
-  const FramePlan plan(scene.time);
+  const FramePlan plan(sim.scene().time);  // its dt may be the mesh's choice
   prepare_output_folder(opt.out_dir);
   Run run(scene, opt, sim, plan);
   run.step_frames(opt.resume ? run.resume() : run.start());

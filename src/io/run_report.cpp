@@ -58,6 +58,7 @@ nlohmann::json run_json(const RunReport& r, Simulator& sim) {
   j["obstacle_holes"] = {{"found", sim.obstacles().holes_found}, {"capped", sim.obstacles().holes_capped},
                          {"cap_triangles", sim.obstacles().cap_triangles}};
   j["dt"] = sim.scene().time.dt;
+  if (sim.dt_from_mesh()) j["dt_from_mesh"] = true;
   j["fps"] = sim.scene().time.fps;
   // The cloth thickness (metres): `raycloth check DIR` reads it to tell pinches from failures.
   j["thickness"] = check_thickness(sim.scene());

@@ -65,7 +65,7 @@ SceneDef SceneReader::scene(const json& j) const {
 
 TimeDef SceneReader::time(const json& j, const std::string& ptr) const {
   TimeDef t;
-  object(j, ptr, {"dt", "duration", "fps", "integrator", "iterations", "tolerance"});
+  object(j, ptr, {"dt", "max_dt", "duration", "fps", "integrator", "iterations", "tolerance"});
   optional(j, ptr, "integrator", [&](const json& v, const std::string& p) {
     const std::string name = string(v, p);
     if (name == "explicit") t.integrator = Integrator::Explicit;
@@ -78,6 +78,12 @@ TimeDef SceneReader::time(const json& j, const std::string& ptr) const {
   optional(j, ptr, "iterations", [&](const json& v, const std::string& p) { t.iterations = integer(v, p); });
   optional(j, ptr, "tolerance", [&](const json& v, const std::string& p) { t.tolerance = number(v, p); });
   optional(j, ptr, "dt", [&](const json& v, const std::string& p) { t.dt = number(v, p); });
+  t.dt_given = j.contains("dt");
+  if (t.dt_given && j.contains("max_dt")) fail(ptr + "/max_dt", "give dt or max_dt, not both (max_dt lets the mesh choose a smaller step)");
+  optional(j, ptr, "max_dt", [&](const json& v, const std::string& p) {
+    t.dt = t.max_dt = number(v, p);
+    if (!(t.max_dt > 0)) fail(p, "must be positive (got " + num(t.max_dt) + ")");
+  });
   optional(j, ptr, "duration", [&](const json& v, const std::string& p) { t.duration = number(v, p); });
   optional(j, ptr, "fps", [&](const json& v, const std::string& p) { t.fps = number(v, p); });
   return t;
