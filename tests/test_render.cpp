@@ -34,7 +34,7 @@ SceneDef panel_over_sphere() {
 }
 
 struct Rendered {
-  Image image;
+  RgbImage image;
   View view;
 };
 
@@ -71,14 +71,14 @@ struct Colour {
 };
 
 // Mean colour of the (2 half + 1)^2 pixels around (x, y).
-Colour region(const Image& img, float fx, float fy, int half = 1) {
+Colour region(const RgbImage& img, float fx, float fy, int half = 1) {
   const int x0 = int(fx), y0 = int(fy);
   Colour c{0, 0, 0};
   int n = 0;
   for (int y = y0 - half; y <= y0 + half; ++y)
     for (int x = x0 - half; x <= x0 + half; ++x) {
       if (x < 0 || y < 0 || x >= img.width || y >= img.height) continue;
-      const uint8_t* p = &img.rgb[(size_t(y) * img.width + x) * 3];
+      const uint8_t* p = &img.pixels[(size_t(y) * img.width + x) * 3];
       c.r += p[0], c.g += p[1], c.b += p[2];
       ++n;
     }
@@ -86,7 +86,7 @@ Colour region(const Image& img, float fx, float fy, int half = 1) {
   return n ? Colour{c.r / n, c.g / n, c.b / n} : c;
 }
 
-float hue_of(const Rgb& albedo) { return Colour{albedo[0], albedo[1], albedo[2]}.hue(); }
+float hue_of(const LinearRgb& albedo) { return Colour{albedo[0], albedo[1], albedo[2]}.hue(); }
 float hue_distance(float a, float b) {
   const float d = std::fabs(a - b);
   return std::min(d, 360 - d);
@@ -98,16 +98,16 @@ TEST(Render, ImageHasTheRequestedSize) {
   const Rendered r = render_scene(panel_over_sphere(), small_camera(1));
   EXPECT_EQ(r.image.width, 160);
   EXPECT_EQ(r.image.height, 90);
-  EXPECT_EQ(r.image.rgb.size(), 160u * 90u * 3u);
+  EXPECT_EQ(r.image.pixels.size(), 160u * 90u * 3u);
 }
 
 TEST(Render, SameSceneGivesIdenticalBytesOnAnyNumberOfThreads) {
   const Rendered a = render_scene(panel_over_sphere(), small_camera());
   const Rendered b = render_scene(panel_over_sphere(), small_camera());
-  EXPECT_EQ(a.image.rgb, b.image.rgb);
+  EXPECT_EQ(a.image.pixels, b.image.pixels);
   tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
   const Rendered c = render_scene(panel_over_sphere(), small_camera());
-  EXPECT_EQ(a.image.rgb, c.image.rgb);
+  EXPECT_EQ(a.image.pixels, c.image.pixels);
   // And the PNG bytes.
   const fs::path dir = fs::temp_directory_path() / "raycloth_render_png";
   fs::create_directories(dir);

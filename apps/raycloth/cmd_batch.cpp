@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "commands.h"
+#include "common.h"
 #include "io/atomic_file.h"
 #include "io/batch.h"
 #include "raycloth/error.h"

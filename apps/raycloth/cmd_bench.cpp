@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "commands.h"
+#include "common.h"
 #include "raycloth/simulator.h"
 #include "sim/model.h"
 

@@ -11,6 +11,7 @@
 
 #include "check/folder_check.h"
 #include "commands.h"
+#include "common.h"
 
 namespace raycloth::cli {
 

@@ -12,6 +12,7 @@
 #include <memory>
 
 #include "commands.h"
+#include "common.h"
 #include "fabric/kes.h"
 #include "fabric/measured.h"
 #include "lab/fabric_tests.h"

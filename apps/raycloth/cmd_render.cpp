@@ -9,6 +9,7 @@
 
 #include "camera_options.h"
 #include "commands.h"
+#include "common.h"
 #include "render/image_frames.h"
 
 namespace raycloth::cli {

@@ -11,6 +11,7 @@
 
 #include "camera_options.h"
 #include "commands.h"
+#include "common.h"
 #include "io/checkpoint.h"
 #include "io/run.h"
 #include "raycloth/error.h"

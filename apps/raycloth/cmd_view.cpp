@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "commands.h"
+#include "common.h"
 #include "io/viewer.h"
 
 namespace raycloth::cli {

@@ -17,6 +17,11 @@ enum class Integrator { Explicit, Implicit };
 
 struct TimeDef {
   double dt = 4e-4;        // seconds per step
+  // A scene file without "dt" leaves the step to the mesh (Simulator): dt (or max_dt, when given),
+  // or where the explicit step cannot take that, the largest step of two significant digits below
+  // 0.9 of the mesh's limit. Scenes built in code give dt.
+  bool dt_given = true;
+  double max_dt = 0;       // seconds; 0: none given
   double duration = 3.0;   // simulated seconds
   double fps = 30.0;       // output frames per simulated second
   // The paper's explicit Euler (eq. 3; dt below its stability limit), or implicit Euler by vertex

@@ -77,6 +77,9 @@ class Simulator {
   // Substeps per step: 1, or for the implicit integrator where a body moves, as many as keep its
   // fastest point within kImplicitMaxBodyMove per substep.
   int substeps() const { return substeps_; }
+  // Whether the scene left the step to the mesh (TimeDef::dt_given false) and the mesh could not take
+  // the scene's (or the default) dt, so that scene().time.dt was chosen below its explicit limit.
+  bool dt_from_mesh() const { return dt_from_mesh_; }
   // Garments placed on a body (SceneDef::garment_fits): how far each of their panels was moved along
   // its normal to clear the body at the start (sim/garment_fit.h), in the scene's panel order.
   struct PanelMove {
@@ -105,6 +108,8 @@ class Simulator {
  private:
   SceneDef scene_;
   int substeps_ = 1;
+  bool dt_from_mesh_ = false;
+  void choose_dt(double t0);
   double step_dt_ = 0;       // what the backend steps: scene_.time.dt / substeps_,
   int step_iterations_ = 0;  // with these sweeps (the implicit integrator)
   std::vector<PanelMove> panel_moves_;

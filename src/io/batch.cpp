@@ -17,6 +17,7 @@
 #include "io/checkpoint.h"
 #include "io/run.h"
 #include "raycloth/error.h"
+#include "scene/json_text.h"
 
 namespace raycloth {
 
@@ -48,21 +49,11 @@ std::string json_message(const std::exception& e) {
   return m;
 }
 
-std::string pointer_token(const std::string& key) {
-  std::string t;
-  for (char c : key) {
-    if (c == '~') t += "~0";
-    else if (c == '/') t += "~1";
-    else t += c;
-  }
-  return t;
-}
-
 // Checks that `key` names a field of the base scene that can be set: a JSON pointer whose parent
 // exists, an existing element of a list or any key of an object (scene fields left out take their
 // defaults, so a sweep may set them).
 json::json_pointer scene_pointer(const Sweep& s, const std::string& section, const std::string& key) {
-  const std::string field = "/" + section + "/" + pointer_token(key);
+  const std::string field = "/" + section + "/" + json_pointer_token(key);
   if (key.empty() || key[0] != '/')
     throw InputError(s.file, field, fmt::format("'{}' is not a scene field: write it as a JSON pointer, such as "
                                                 "\"/materials/0/stretch\"", key));
@@ -82,7 +73,7 @@ json::json_pointer scene_pointer(const Sweep& s, const std::string& section, con
     const std::string& tok = tokens[t];
     const bool last = t + 1 == tokens.size();
     const std::string here = walked.empty() ? "/" : walked;
-    walked.append("/").append(pointer_token(tok));
+    walked.append("/").append(json_pointer_token(tok));
     if (at->is_object()) {
       if (last) return p;  // a field the scene leaves to its default may be set
       if (!at->contains(tok)) throw InputError(s.file, field, fmt::format("the scene {} has no {}", scene, walked));
@@ -212,7 +203,7 @@ Sweep load_sweep(const std::string& path) {
   for (const auto& [key, value] : j.items()) {
     (void)value;
     if (key != "scene" && key != "set" && key != "vary")
-      throw InputError(path, "/" + pointer_token(key), "unknown field '" + key + "' (expected scene, set, vary)");
+      throw InputError(path, "/" + json_pointer_token(key), "unknown field '" + key + "' (expected scene, set, vary)");
   }
   if (!j.contains("scene")) throw InputError(path, "/scene", "missing: name the base scene file (relative to the sweep file)");
   if (!j["scene"].is_string() || j["scene"].get<std::string>().empty())
@@ -235,7 +226,7 @@ Sweep load_sweep(const std::string& path) {
     throw InputError(path, "/vary", "must be an object of scene fields (JSON pointers) to lists of values");
   size_t count = 1;
   for (const auto& [key, values] : j["vary"].items()) {
-    const std::string field = "/vary/" + pointer_token(key);
+    const std::string field = "/vary/" + json_pointer_token(key);
     scene_pointer(s, "vary", key);
     for (const auto& [k, v] : s.set) {
       (void)v;

@@ -77,4 +77,12 @@ void write_obstacles_obj(const std::filesystem::path& path, const ObstacleSet& o
   });
 }
 
+void ObjFrames::begin(Simulator&, const std::filesystem::path& out) { dir_ = out / "frames"; }
+
+void ObjFrames::frame(Simulator& sim, const FrameRecord& r) {
+  write_cloth_obj(dir_ / frame_name("cloth", r.index, "obj"), sim.model(), sim.positions());
+  if (sim.obstacles().any_moving)
+    write_obstacles_obj(dir_ / frame_name("obstacles", r.index, "obj"), sim.obstacles(), sim.obstacle_vertices());
+}
+
 }  // namespace raycloth

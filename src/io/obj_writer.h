@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <vector>
 
+#include "io/run.h"
 #include "raycloth/vec3.h"
 #include "sim/model.h"
 
@@ -13,5 +14,15 @@ std::vector<Vec3> cloth_vertex_normals(const ClothModel& model, const std::vecto
 void write_cloth_obj(const std::filesystem::path& path, const ClothModel& model, const std::vector<Vec3>& positions);
 void write_obstacles_obj(const std::filesystem::path& path, const ObstacleSet& obstacles,
                          const std::vector<Vec3>& world_vertices);
+
+// frames/cloth_NNNN.obj for every frame, and frames/obstacles_NNNN.obj when an obstacle moves.
+class ObjFrames final : public FrameSink {
+ public:
+  void begin(Simulator& sim, const std::filesystem::path& out_dir) override;
+  void frame(Simulator& sim, const FrameRecord& record) override;
+
+ private:
+  std::filesystem::path dir_;
+};
 
 }  // namespace raycloth

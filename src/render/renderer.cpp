@@ -2,7 +2,6 @@
 
 #include <embree3/rtcore.h>
 #include <spdlog/spdlog.h>
-#include <stb_image_write.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -13,7 +12,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "io/atomic_file.h"
 #include "raycloth/simulator.h"
 #include "sim/model.h"
 
@@ -26,27 +24,27 @@ constexpr uint64_t kSeed = 0x5EED0F0C1074ull;  // fixed: the same scene gives th
 constexpr unsigned kClothGeom = 0, kObstacleGeom = 1;
 
 // Light and materials, linear RGB.
-constexpr Rgb kKeyLight{1.55f, 1.49f, 1.40f};
-constexpr Rgb kAmbient{0.42f, 0.45f, 0.50f};
-constexpr Rgb kGround{0.46f, 0.44f, 0.41f};
-constexpr Rgb kSkyHorizon{0.68f, 0.76f, 0.90f};
-constexpr Rgb kSkyZenith{0.30f, 0.46f, 0.74f};
+constexpr LinearRgb kKeyLight{1.55f, 1.49f, 1.40f};
+constexpr LinearRgb kAmbient{0.42f, 0.45f, 0.50f};
+constexpr LinearRgb kGround{0.46f, 0.44f, 0.41f};
+constexpr LinearRgb kSkyHorizon{0.68f, 0.76f, 0.90f};
+constexpr LinearRgb kSkyZenith{0.30f, 0.46f, 0.74f};
 constexpr float kExposure = 0.65f;
 
 // Warm and cool fabric colours that stay apart from each other, the grey obstacles and the sky.
-constexpr std::array<Rgb, 8> kPalette{{{0.78f, 0.22f, 0.18f},
-                                       {0.13f, 0.45f, 0.62f},
-                                       {0.90f, 0.62f, 0.14f},
-                                       {0.25f, 0.55f, 0.30f},
-                                       {0.55f, 0.30f, 0.60f},
-                                       {0.85f, 0.45f, 0.55f},
-                                       {0.20f, 0.60f, 0.60f},
-                                       {0.60f, 0.42f, 0.25f}}};
+constexpr std::array<LinearRgb, 8> kPalette{{{0.78f, 0.22f, 0.18f},
+                                             {0.13f, 0.45f, 0.62f},
+                                             {0.90f, 0.62f, 0.14f},
+                                             {0.25f, 0.55f, 0.30f},
+                                             {0.55f, 0.30f, 0.60f},
+                                             {0.85f, 0.45f, 0.55f},
+                                             {0.20f, 0.60f, 0.60f},
+                                             {0.60f, 0.42f, 0.25f}}};
 
-Rgb operator*(const Rgb& a, const Rgb& b) { return {a[0] * b[0], a[1] * b[1], a[2] * b[2]}; }
-Rgb operator*(const Rgb& a, float s) { return {a[0] * s, a[1] * s, a[2] * s}; }
-Rgb operator+(const Rgb& a, const Rgb& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
-Rgb mix(const Rgb& a, const Rgb& b, float t) { return a * (1 - t) + b * t; }
+LinearRgb operator*(const LinearRgb& a, const LinearRgb& b) { return {a[0] * b[0], a[1] * b[1], a[2] * b[2]}; }
+LinearRgb operator*(const LinearRgb& a, float s) { return {a[0] * s, a[1] * s, a[2] * s}; }
+LinearRgb operator+(const LinearRgb& a, const LinearRgb& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
+LinearRgb mix(const LinearRgb& a, const LinearRgb& b, float t) { return a * (1 - t) + b * t; }
 
 // splitmix64 per pixel: each pixel's samples depend only on its position and the fixed seed.
 struct Rng {
@@ -114,8 +112,8 @@ void add_geometry(RTCDevice device, RTCScene scene, unsigned id, const std::vect
 
 // Exposure, the ACES filmic curve (Narkowicz's fit) applied to luminance so that colours keep
 // their saturation, then the sRGB transfer function.
-std::array<uint8_t, 3> to_srgb8(const Rgb& linear) {
-  const Rgb c = linear * kExposure;
+std::array<uint8_t, 3> to_srgb8(const LinearRgb& linear) {
+  const LinearRgb c = linear * kExposure;
   const float lum = 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2];
   const float mapped = (lum * (2.51f * lum + 0.03f)) / (lum * (2.43f * lum + 0.59f) + 0.14f);
   const float k = lum > 0 ? mapped / lum : 0.0f;
@@ -157,7 +155,7 @@ RenderScene make_render_scene(Simulator& sim) {
   return s;
 }
 
-Rgb panel_colour(size_t panel) { return kPalette[panel % kPalette.size()]; }
+LinearRgb panel_colour(size_t panel) { return kPalette[panel % kPalette.size()]; }
 
 View make_view(const Bounds& b, const CameraDef& def) {
   View v;
@@ -191,7 +189,7 @@ Renderer::Renderer() : impl_(std::make_unique<Impl>()) {
 
 Renderer::~Renderer() { rtcReleaseDevice(impl_->device); }
 
-Image Renderer::render(const RenderScene& s, const View& view) {
+RgbImage Renderer::render(const RenderScene& s, const View& view) {
   RTCScene scene = rtcNewScene(impl_->device);
   if (!s.cloth_indices.empty()) add_geometry(impl_->device, scene, kClothGeom, s.cloth_vertices, s.cloth_indices);
   if (!s.obstacle_indices.empty())
@@ -226,7 +224,7 @@ Image Renderer::render(const RenderScene& s, const View& view) {
 
   // Sample k of a pixel: its secondary rays take cells k * rays .. (k + 1) * rays - 1 of the
   // pixel's light and hemisphere strata.
-  auto shade = [&](RTCIntersectContext& ctx, Rng& rng, int k_sample, Vec3 org, Vec3 dir) -> Rgb {
+  auto shade = [&](RTCIntersectContext& ctx, Rng& rng, int k_sample, Vec3 org, Vec3 dir) -> LinearRgb {
     RTCRayHit rh;
     rh.ray.org_x = org.x, rh.ray.org_y = org.y, rh.ray.org_z = org.z;
     rh.ray.dir_x = dir.x, rh.ray.dir_y = dir.y, rh.ray.dir_z = dir.z;
@@ -241,11 +239,11 @@ Image Renderer::render(const RenderScene& s, const View& view) {
 
     const float t_ground = dir.y < 0 ? (view.ground_y - org.y) / dir.y : std::numeric_limits<float>::infinity();
     const bool hit_mesh = rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
-    const Rgb sky = mix(kSkyHorizon, kSkyZenith, std::sqrt(std::clamp(dir.y, 0.0f, 1.0f)));
+    const LinearRgb sky = mix(kSkyHorizon, kSkyZenith, std::sqrt(std::clamp(dir.y, 0.0f, 1.0f)));
     if (!hit_mesh && !(t_ground < std::numeric_limits<float>::infinity())) return sky;
 
     Vec3 p, n, ng;
-    Rgb albedo;
+    LinearRgb albedo;
     float fog = 0;
     if (hit_mesh && rh.ray.tfar <= t_ground) {
       p = org + dir * rh.ray.tfar;
@@ -307,46 +305,30 @@ Image Renderer::render(const RenderScene& s, const View& view) {
     }
     ambient /= float(ao_rays);
 
-    const Rgb lit = albedo * (kKeyLight * direct + kAmbient * ambient);
+    const LinearRgb lit = albedo * (kKeyLight * direct + kAmbient * ambient);
     return fog > 0 ? mix(lit, kSkyHorizon, fog) : lit;
   };
 
-  Image img;
-  img.width = cam.width;
-  img.height = cam.height;
-  img.rgb.resize(size_t(img.width) * img.height * 3);
+  RgbImage img(cam.width, cam.height);
   tbb::parallel_for(tbb::blocked_range<int>(0, img.height), [&](const tbb::blocked_range<int>& rows) {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     for (int y = rows.begin(); y != rows.end(); ++y) {
       for (int x = 0; x < img.width; ++x) {
         Rng rng{kSeed ^ (uint64_t(uint32_t(y)) << 32 | uint32_t(x)) * 0xD6E8FEB86659FD93ull};
-        Rgb sum{0, 0, 0};
+        LinearRgb sum{0, 0, 0};
         for (int k = 0; k < spp; ++k) {
           float sx, sy;
           pixel_strata.sample(k, rng, sx, sy);
           sum = sum + shade(ctx, rng, k, cam.eye, cam.direction(float(x) + sx, float(y) + sy));
         }
         const std::array<uint8_t, 3> px = to_srgb8(sum * (1.0f / float(spp)));
-        std::copy(px.begin(), px.end(), img.rgb.begin() + (size_t(y) * img.width + x) * 3);
+        std::copy(px.begin(), px.end(), img.pixels.begin() + (size_t(y) * img.width + x) * 3);
       }
     }
   });
   rtcReleaseScene(scene);
   return img;
-}
-
-void write_png(const std::filesystem::path& path, const Image& image) {
-  std::vector<uint8_t> bytes;
-  auto append = [](void* ctx, void* data, int size) {
-    auto* out = static_cast<std::vector<uint8_t>*>(ctx);
-    const auto* d = static_cast<const uint8_t*>(data);
-    out->insert(out->end(), d, d + size);
-  };
-  if (!stbi_write_png_to_func(append, &bytes, image.width, image.height, 3, image.rgb.data(), image.width * 3))
-    throw std::runtime_error(path.string() + ": cannot encode the PNG image");
-  write_file_atomically(path, [&](std::ostream& out) { out.write(reinterpret_cast<const char*>(bytes.data()),
-                                                                 std::streamsize(bytes.size())); });
 }
 
 }  // namespace raycloth

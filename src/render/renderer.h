@@ -5,10 +5,10 @@
 #pragma once
 #include <array>
 #include <cstdint>
-#include <filesystem>
 #include <memory>
 #include <vector>
 
+#include "io/image.h"
 #include "raycloth/scene.h"
 #include "raycloth/vec3.h"
 #include "render/camera.h"
@@ -30,16 +30,11 @@ struct RenderScene {
 // The simulator's cloth (one panel per model piece) and obstacles at its current time.
 RenderScene make_render_scene(Simulator& sim);
 
-using Rgb = std::array<float, 3>;  // linear albedo
+using LinearRgb = std::array<float, 3>;  // linear albedo
 
 // Albedo of panel i (a fixed palette, repeating after its last colour) and of every obstacle.
-Rgb panel_colour(size_t panel);
-inline constexpr Rgb kObstacleColour{0.60f, 0.60f, 0.60f};  // neutral grey: apart from every panel
-
-struct Image {
-  int width = 0, height = 0;
-  std::vector<uint8_t> rgb;  // 8-bit sRGB, rows top to bottom
-};
+LinearRgb panel_colour(size_t panel);
+inline constexpr LinearRgb kObstacleColour{0.60f, 0.60f, 0.60f};  // neutral grey: apart from every panel
 
 // Camera, light and ground of a frame, set from `seen`: the bounds of everything the scene has
 // occupied up to this frame (frame 0 through the current one). The view thus holds still while
@@ -60,14 +55,11 @@ class Renderer {
   ~Renderer();
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
-  Image render(const RenderScene& scene, const View& view);
+  RgbImage render(const RenderScene& scene, const View& view);  // 8-bit sRGB
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
-
-// Writes `image` as PNG under a temporary name and renames it; throws std::runtime_error naming the file.
-void write_png(const std::filesystem::path& path, const Image& image);
 
 }  // namespace raycloth

@@ -22,16 +22,6 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
-std::string token(const std::string& key) {
-  std::string s;
-  for (char c : key) {
-    if (c == '~') s += "~0";
-    else if (c == '/') s += "~1";
-    else s += c;
-  }
-  return s;
-}
-
 // Euler angles (degrees) of R = Rz·Ry·Rx, the convention of TransformDef::rotation.
 Float3 euler_xyz_degrees(const Mat3& r) {
   const double deg = 180.0 / M_PI;
@@ -89,7 +79,7 @@ class GcReader {
 
     GarmentCodeGarment g;
     for (const auto& [name, pj] : panels->items()) {
-      const std::string p = "/pattern/panels/" + token(name);
+      const std::string p = "/pattern/panels/" + json_pointer_token(name);
       g.file_panel_names.push_back(name);
       g.panels.push_back(panel(pj, p, name, to_m, garment_rot));
       edge_counts_[name] = g.panels.back().pattern.outline.size();

@@ -35,6 +35,7 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
   // its convergence instead (run.json's "integrator").
   const bool expl = scene_.time.integrator == Integrator::Explicit;
   const double t0 = model_->natural_period();
+  if (expl && !scene_.time.dt_given) choose_dt(t0);
   if (expl && scene_.time.dt >= t0) {
     const std::string why = fmt::format(
         "time step {:g} s is not below the natural period T0 = pi*sqrt(m/K) = {:g} s (lightest vertex m = {:g} kg, "
@@ -199,6 +200,24 @@ void Simulator::advance(int n) {
         r.bad_step, double(r.bad_step + 1) * scene_.time.dt, local, piece->name, where, x[vi].x, x[vi].y, x[vi].z));
   }
   steps_ += uint64_t(n);
+}
+
+// A scene file without dt: its dt (the default, or max_dt) where the explicit step can take it, else
+// the largest step of two significant digits below 0.9 of the mesh's limit (the smaller of T0 and the
+// per-vertex limit; ClothModel::stability_limit).
+void Simulator::choose_dt(double t0) {
+  uint32_t worst = 0;
+  const double limit = std::min(t0, model_->stability_limit(&worst));
+  const double want = scene_.time.dt;
+  if (want < limit) return;
+  const double target = 0.9 * limit;
+  const double unit = std::pow(10.0, std::floor(std::log10(target)) - 1.0);
+  scene_.time.dt = std::floor(target / unit) * unit;
+  dt_from_mesh_ = true;
+  const Piece& piece = model_->piece_of(worst);
+  spdlog::info("time.dt {:g} s, chosen from the mesh: {:g} s is not below the explicit step's limit {:g} s (vertex {} of "
+               "panel '{}')",
+               scene_.time.dt, want, limit, worst - piece.first_vertex, piece.name);
 }
 
 bool Simulator::can_checkpoint() const { return backend_->can_checkpoint(); }
