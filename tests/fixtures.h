@@ -1,14 +1,28 @@
 // Small scenes built in code for the tests.
 #pragma once
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
+#include <functional>
 #include <string>
 
 #include "sim/model_check.h"
+#include "raycloth/error.h"
 #include "raycloth/scene.h"
 #include "raycloth/simulator.h"
 
 namespace raycloth::test {
+
+// f() throws InputError with exactly `message`.
+inline void expect_input_error(const std::function<void()>& f, const std::string& message) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), message);
+    return;
+  }
+  ADD_FAILURE() << "no InputError thrown; expected: " << message;
+}
 
 inline OutlineSegment seg(const std::string& name, float x, float y) {
   OutlineSegment s;

@@ -17,15 +17,7 @@
 namespace raycloth {
 namespace {
 
-void expect_input_error(const std::function<void()>& f, const std::string& message) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), message);
-    return;
-  }
-  ADD_FAILURE() << "no InputError thrown; expected: " << message;
-}
+using test::expect_input_error;
 
 TEST(Fabric, KesUnitsConvertToSi) {
   // 20 mg/cm^2 = 20e-6 kg / 1e-4 m^2 = 0.2 kg/m^2.

@@ -9,6 +9,7 @@
 #include <map>
 
 #include "fabric/kes.h"
+#include "fixtures.h"
 #include "fabric/measured.h"
 #include "fabric/stiffening.h"
 #include "lab/fabric_tests.h"
@@ -21,15 +22,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-void expect_input_error(const std::function<void()>& f, const std::string& message) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), message);
-    return;
-  }
-  ADD_FAILURE() << "no InputError thrown; expected: " << message;
-}
+using test::expect_input_error;
 
 const fabric::MeasuredData& gray() { return fabric::find_measured("gray_interlock")->data; }
 

@@ -398,20 +398,32 @@ double bend_share(const ClothModel& m) {
 
 }  // namespace
 
+namespace {
+
+// A pulled specimen's scene, without gravity and with the fabric, and its panel "specimen" of that
+// fabric (the caller shapes and pins it).
+SceneDef pull_scene(const char* name, const MaterialDef& material, PanelDef& specimen) {
+  SceneDef s;
+  s.name = name;
+  s.source = "tensile";
+  s.gravity = {0, 0, 0};
+  s.materials.push_back(material);
+  specimen = PanelDef();
+  specimen.name = "specimen";
+  specimen.material = material.name;
+  return s;
+}
+
+}  // namespace
+
 std::vector<TensilePoint> tensile_test(const MaterialDef& material, const TensileOptions& options) {
   std::vector<TensilePoint> out;
   TensileOptions o = options;
   const bool choose = o.edge <= 0;
   if (choose) o.edge = 0.005;
   for (double strain : o.strains) {
-    SceneDef s;
-    s.name = "tensile";
-    s.source = "tensile";
-    s.gravity = {0, 0, 0};
-    s.materials.push_back(material);
     PanelDef p;
-    p.name = "specimen";
-    p.material = material.name;
+    SceneDef s = pull_scene("tensile", material, p);
     p.shape = PanelShape::Pattern;
     const float hl = float(o.length / 2), hw = float(o.width / 2);
     p.pattern.outline = {{"bottom", {-hl, -hw}, std::nullopt}, {"right", {hl, -hw}, std::nullopt},
@@ -459,14 +471,8 @@ std::vector<DirectionalPoint> directional_tensile(const MaterialDef& material, d
   if (choose) o.edge = 0.005;
   const double half = 0.5 * o.size;
   for (double strain : o.strains) {
-    SceneDef s;
-    s.name = "directional_tensile";
-    s.source = "tensile";
-    s.gravity = {0, 0, 0};
-    s.materials.push_back(material);
     PanelDef p;
-    p.name = "specimen";
-    p.material = material.name;
+    SceneDef s = pull_scene("directional_tensile", material, p);
     p.warp = float(angle);  // the pull runs along x: the warp `angle` from it
     if (o.grid) {
       p.width = p.height = float(o.size);

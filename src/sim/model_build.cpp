@@ -87,6 +87,14 @@ std::vector<uint32_t> range_ids(const SceneDef& s, const Piece& p, std::array<in
   return ids;
 }
 
+// The global vertex ids along an edge or segment of panel `panel` (pins and attachments).
+std::vector<uint32_t> path_ids(const SceneDef& s, const ClothModel& m, const std::vector<PanelMesh>& meshes, size_t panel,
+                               const EdgeRef& ref, const std::string& field) {
+  std::vector<uint32_t> ids;
+  for (uint32_t i : panel_path(s, s.panels[panel], meshes[panel], ref, field)) ids.push_back(m.pieces[panel].first_vertex + i);
+  return ids;
+}
+
 void add_pins(ClothModel& m, const SceneDef& s, const std::vector<PanelMesh>& meshes) {
   for (size_t pi = 0; pi < s.pins.size(); ++pi) {
     const PinDef& pd = s.pins[pi];
@@ -109,8 +117,7 @@ void add_pins(ClothModel& m, const SceneDef& s, const std::vector<PanelMesh>& me
                          "unknown corner '" + c + "' (expected bottom_left, bottom_right, top_left or top_right)");
       ids.push_back(p.first_vertex + v * nu + u);
     } else if (!pd.edge.empty() || !pd.segment.empty()) {
-      EdgeRef ref{pd.panel, pd.edge, pd.segment, std::nullopt};
-      for (uint32_t i : panel_path(s, s.panels[panel], meshes[panel], ref, field)) ids.push_back(p.first_vertex + i);
+      ids = path_ids(s, m, meshes, panel, EdgeRef{pd.panel, pd.edge, pd.segment, std::nullopt}, field);
     } else if (pd.range) {
       ids = range_ids(s, p, *pd.range, field + "/range");
     } else {
@@ -133,8 +140,7 @@ void add_attachment_vertices(ClothModel& m, const SceneDef& s, const std::vector
         throw InputError(s.source, field, "needs exactly one of edge, segment or range");
       ids = range_ids(s, p, *ad.range, field + "/range");
     } else {
-      EdgeRef ref{ad.panel, ad.edge, ad.segment, std::nullopt};
-      for (uint32_t i : panel_path(s, s.panels[panel], meshes[panel], ref, field)) ids.push_back(p.first_vertex + i);
+      ids = path_ids(s, m, meshes, panel, EdgeRef{ad.panel, ad.edge, ad.segment, std::nullopt}, field);
     }
     m.attachment_vertices.push_back(std::move(ids));
   }
