@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 # The table of docs/garments.md ("Any garment") from a raycloth batch output folder of
-# scenes/sweeps/garmentcode_all_short.json: python3 scripts/garment_table.py OUT
+# scenes/sweeps/garmentcode_all_short.json or garmentcode_all.json: python3 scripts/garment_table.py OUT
 import json, os, sys
 root = sys.argv[1]
 rows = []
@@ -28,8 +28,8 @@ for l in open(os.path.join(root, 'results.jsonl')):
     except Exception as e:
         gap = None; cross_after = inside_walk = None
     rows.append((j['id'], fam + '/' + f, verts, j['status'], j['frames'], j['bad_frames'], stand_bad, cross_close, cross_after, walk_bad, inside_walk, welded, stitches, gap, j.get('steps_per_second'), j.get('wall_s'), (j.get('error') or '')[:90]))
-print('| case | file | cloth vertices | bad frames / frames | standing (0-1 s): bad frames, most crossings while sewing (<= 0.5 s), after | walking (1-1.5 s): bad frames, most vertices inside | stitches welded | widest seam gap at the end | steps/s | wall s |')
+print('| case | file | cloth vertices | bad frames / frames | standing (0-1 s): bad frames, most crossings while sewing (<= 0.5 s), after | walking (after 1 s): bad frames, most vertices inside | stitches welded | widest seam gap at the end | steps/s | wall s |')
 print('|---|---|---:|---:|---|---|---:|---:|---:|---:|')
-for r in rows:
+for r in sorted(rows):
     (i, f, v, st, fr, bf, sb, cc, ca, wb, iw, w, n, g, sps, wall, err) = r
     print(f"| {i} | {f} | {v} | {bf} / {fr} | {sb}: {cc}, {ca} | {wb}: {iw} | {w} / {n} | {'' if g is None else f'{g*1000:.1f} mm'} | {sps} | {wall} |")
