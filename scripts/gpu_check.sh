@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Runs on a GPU machine from the repository root: unpacks .gpu/rc.tar.xz (scripts/gpu_pack.sh) and
+# runs the GPU tests, the benchmark on both devices and GPU runs of shipped scenes with the exact
+# check, each under a time limit, appending every step's whole output to $OUT/all.log (default
+# /tmp/gpu_out), the runs' run.json files to $OUT/runs.tar.gz, and a summary to stdout. STEPS="tests bench ..." picks steps (default: all, in the order below).
+set -u
+cd "$(dirname "$0")/.."
+out=${OUT:-/tmp/gpu_out}; mkdir -p "$out"
+rc=/tmp/rc; rm -rf "$rc"; mkdir -p "$rc"; tar -xJf .gpu/rc.tar.xz -C "$rc" || exit 1
+src=$(cat "$rc/source_dir")
+[ -e "$src" ] || { mkdir -p "$(dirname "$src")" && ln -s "$PWD" "$src"; }
+export LD_LIBRARY_PATH=$rc/lib
+B=$rc/bin
+logs=/tmp/gpu_logs; rm -rf "$logs"; mkdir -p "$logs"
+steps=${STEPS:-"info tests seed_cuda bench walking_skirt garment seed_cpu sanitize"}
+step() {  # name limit command...
+  local name=$1 limit=$2; shift 2
+  local t0; t0=$(date +%s%N)
+  timeout "$limit" "$@" >"$logs/$name.log" 2>&1
+  local code=$?
+  { echo "=== $name: exit $code, $(( ($(date +%s%N) - t0) / 1000000 )) ms: $*"; cat "$logs/$name.log"; } >>"$out/all.log"
+  echo "=== $name: exit $code, $(( ($(date +%s%N) - t0) / 1000000 )) ms"
+  grep -E "${PICK:-^}" "$logs/$name.log" | tail -n "${TAILN:-12}"
+}
+for s in $steps; do case $s in
+  info) step info 30 nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm --format=csv ;;
+  tests) PICK='FAILED|PASSED|SKIPPED|Failure|error|Expected|Which|actual|  [0-9]' TAILN=40 \
+         step tests 120 "$B/raycloth_tests" --gtest_filter='*Cuda*' ;;
+  bench) step bench_cuda 60 "$B/raycloth" bench --device cuda --sizes 65,129,257,513
+         step bench_cpu 45 "$B/raycloth" bench --device cpu --sizes 65,129,257 ;;
+  seed_cuda) step seed_cuda 60 "$B/raycloth" run --device cuda -o /tmp/seed_cuda ;;
+  seed_cpu) step seed_cpu 45 "$B/raycloth" run --device cpu -o /tmp/seed_cpu
+            [ -d /tmp/seed_cuda ] && step seed_compare 60 python3 scripts/compare_runs.py /tmp/seed_cpu /tmp/seed_cuda ;;
+  walking_skirt) step walking_skirt 60 "$B/raycloth" run scenes/walking_skirt.json --device cuda --duration 0.3 -o /tmp/skirt_cuda ;;
+  garment) step garment 60 "$B/raycloth" run scenes/garment_on_man.json --device cuda --duration 0.2 -o /tmp/garment_cuda ;;
+  sanitize) TAILN=25 step sanitize 90 compute-sanitizer --tool memcheck --leak-check no \
+            "$B/raycloth_tests" --gtest_filter='CudaParity.DefaultSceneMatchesCpuCloselyBeforeContact:CudaParity.MovingObstacleMatchesCpu' ;;
+esac; done
+ls /tmp/*/run.json >/dev/null 2>&1 && tar -czf "$out/runs.tar.gz" /tmp/*/run.json 2>/dev/null
