@@ -131,6 +131,46 @@ TEST(Sewing, WeldAtStartKeepsOneVertexPerPairAndPairsThatStartTogetherWeld) {
   EXPECT_GE(joined, 9u);
 }
 
+// Stitches close at different times, so the model is welded again at each weld check. Partners of
+// an earlier weld have given their mass to their representative; welding again must not take their
+// zero inverse mass for a pin (it once did: every seam closed before the last weld check was nailed
+// in place, and a garment on a walking body stayed where it was while he walked through it).
+TEST(Sewing, WeldingAgainAsStitchesCloseLeavesEveryGroupFree) {
+  SceneDef s = two_squares_sewn();
+  PinDef pin;  // one real pin: it must still pin its group
+  pin.panel = "a";
+  pin.segment = "top";
+  s.pins.push_back(pin);
+  ClothModel m = build_cloth_model(s);
+  ASSERT_GE(m.stitches.size(), 6u);
+  double mass = 0;
+  for (float w : m.mass) mass += w;
+  auto weld_pair = [&](size_t k) {  // as Simulator::weld_closed_stitches joins a closed stitch
+    const uint32_t ra = m.alias[m.stitches[2 * k]], rb = m.alias[m.stitches[2 * k + 1]];
+    const uint32_t lo = std::min(ra, rb), hi = std::max(ra, rb);
+    for (uint32_t& r : m.alias)
+      if (r == hi) r = lo;
+    weld_seams(m);
+    build_adjacency(m);
+  };
+  weld_pair(0);
+  weld_pair(1);
+  weld_pair(2);
+  double after = 0;
+  for (float w : m.mass) after += w;
+  EXPECT_NEAR(after, mass, 1e-6 * mass);
+  size_t pinned = 0, pinned_on_top = 0;
+  for (uint32_t i = 0; i < m.num_vertices(); ++i) {
+    if (m.alias[i] != i) continue;
+    EXPECT_GT(m.mass[i], 0.0f) << "vertex " << i;
+    if (m.inv_mass[i] != 0.0f) continue;
+    ++pinned;
+    pinned_on_top += m.initial_positions[i].y > 0.69f;  // a's top edge, at y = 0.7
+  }
+  EXPECT_GT(pinned, 0u);
+  EXPECT_EQ(pinned, pinned_on_top) << "a group welded from a closed stitch is pinned";
+}
+
 TEST(GarmentFit, TheNeckLineOfAGarmentOnABodyIsTheBodys) {
   const fs::path d = temp_dir("neck");
   write(d / "body.obj", boxes_obj(kBody));

@@ -33,11 +33,14 @@ void weld_seams(ClothModel& m) {
     ++members[m.alias[i]];
   }
   for (uint32_t i = 0; i < n; ++i) m.initial_positions[i] = sum[m.alias[i]] / float(members[m.alias[i]]);
+  // A pinned partner pins its group. Partners of an earlier weld (this runs again as stitches close)
+  // already gave their mass and pin to their representative: mass 0 marks them, and their inverse
+  // mass of 0 is no pin.
   for (uint32_t i = 0; i < n; ++i) {
     const uint32_t r = m.alias[i];
     if (r == i) continue;
+    if (m.inv_mass[i] == 0.0f && m.mass[i] != 0.0f) m.inv_mass[r] = 0.0f;
     m.mass[r] += m.mass[i];
-    if (m.inv_mass[i] == 0.0f) m.inv_mass[r] = 0.0f;
     m.mass[i] = 0.0f;
     m.inv_mass[i] = 0.0f;
   }
