@@ -321,12 +321,19 @@ TEST(GarmentFit, ObstacleFrontAndHoldAreChecked) {
             "s.json: /obstacles/0/hold: field 'hold' does not apply to obstacle type 'box'");
 }
 
-TEST(Sewing, TheTwoSidesOfAStitchCloseOntoEachOtherNotOneThicknessApart) {
-  // The same two squares, closing to within half a millimetre (a tenth of the default tolerance):
-  // every stitch still gets there and is welded, nothing crossing on the way.
+TEST(Sewing, ACloseToleranceBelowTheThicknessIsRefused) {
+  // The two sides of an open stitch are cloth to each other (nothing of a stitch is left out of the
+  // contact, the bound or the rays, so a closing seam cannot pass through the cloth beside it): the
+  // contact holds them a thickness apart, and a tolerance below it would never be reached.
   SceneDef s = two_squares_sewn();
+  s.collision.thickness = 0.003f;
   s.sewing.close_tolerance = 0.0005f;
-  Simulator sim(s);
-  ASSERT_EQ(test::step_checked(sim, 3000, 10), "");
-  EXPECT_EQ(sim.stitches_welded(), sim.model().stitch_seam.size());
+  try {
+    Simulator sim(s);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "<scene>: /sewing/close_tolerance: must be at least the collision thickness 0.003 m (got 0.0005): the contact "
+              "keeps the two sides of a stitch that far apart, so it would never close");
+  }
 }

@@ -265,7 +265,13 @@ void validate_garment_fits(const Checks& c) {
 
 void validate_sewing(const Checks& c) {
   c.non_negative(c.s.sewing.close_time, "/sewing/close_time");
-  if (c.s.sewing.close_tolerance) c.positive(*c.s.sewing.close_tolerance, "/sewing/close_tolerance");
+  if (!c.s.sewing.close_tolerance) return;
+  const double tol = *c.s.sewing.close_tolerance, thickness = c.s.collision.thickness;
+  c.positive(tol, "/sewing/close_tolerance");
+  // The two sides of an open stitch are cloth to each other: the contact holds them a thickness apart.
+  if (tol < thickness)
+    c.fail("/sewing/close_tolerance", "must be at least the collision thickness " + num(thickness) + " m (got " + num(tol) +
+                                          "): the contact keeps the two sides of a stitch that far apart, so it would never close");
 }
 
 void validate_attachments(const Checks& c) {

@@ -229,8 +229,8 @@ RC_HD void stage_bound(const StepView& s, uint32_t t, uint32_t pass) {
     const Aabb box2 = aabb_union(segment_box(x[w[0]], x[w[1]]), point_box(x[w[2]]));
     const Aabb query2 = aabb_grow(box2, grow);
     const ModelView& mv = s.model;
-    auto in_t = [&](uint32_t k) { return sew_neighbours(mv, k, v[0]) || sew_neighbours(mv, k, v[1]) || sew_neighbours(mv, k, v[2]); };
-    auto in_t2 = [&](uint32_t k) { return sew_neighbours(mv, k, w[0]) || sew_neighbours(mv, k, w[1]) || sew_neighbours(mv, k, w[2]); };
+    auto in_t = [&](uint32_t k) { return k == v[0] || k == v[1] || k == v[2]; };
+    auto in_t2 = [&](uint32_t k) { return k == w[0] || k == w[1] || k == w[2]; };
     for (int k = 0; k < 3; ++k) {
       // Corner k of t against t2; corner k of t2 against t.
       if ((own & (8u << k)) && !in_t2(v[k]) && aabb_overlap(query2, point_box(x[v[k]]))) {
@@ -251,8 +251,7 @@ RC_HD void stage_bound(const StepView& s, uint32_t t, uint32_t pass) {
       for (int l = 0; l < 3; ++l) {
         if (!(own2 & (1u << l))) continue;
         const uint32_t c = w[l], d = w[(l + 1) % 3];
-        if (sew_neighbours(mv, c, a) || sew_neighbours(mv, c, b) || sew_neighbours(mv, d, a) || sew_neighbours(mv, d, b))
-          continue;
+        if (c == a || c == b || d == a || d == b) continue;
         if (!aabb_overlap(ea, segment_box(x[c], x[d]))) continue;
         const double d2 = segment_segment_dist2(p[k], p[(k + 1) % 3], q[l], q[(l + 1) % 3]);
         if (partial) {

@@ -145,8 +145,9 @@ RC_HD uint32_t stage_contact_find_vertex(const StepView& s, uint32_t i) {
   Aabb query = aabb_grow(point_box(y), kNearFactor * float(reach) + float_from_bits(s.counters->move_max));
   bvh_for_each_overlap(s.cloth_bvh, query, [&](uint32_t t) {
     const uint32_t* c = s.model.triangles + 3 * t;
-    // Its own triangles (corners are welded), and those of the vertices sewn to it.
-    if (sew_neighbours(s.model, c[0], i) || sew_neighbours(s.model, c[1], i) || sew_neighbours(s.model, c[2], i)) return;
+    // Its own triangles (corners are welded). The two vertices of an open stitch are cloth to each
+    // other like any other: the stitch closes to within the contact's thickness and is welded there.
+    if (c[0] == i || c[1] == i || c[2] == i) return;
     const DVec3 a = dvec(s.x_next[c[0]]), b = dvec(s.x_next[c[1]]), d = dvec(s.x_next[c[2]]);
     const TrianglePoint q = closest_on_triangle(dy, a, b, d);
     if (q.dist2 < near2) near = true;
@@ -204,9 +205,7 @@ RC_HD uint32_t stage_contact_find_edge(const StepView& s, uint32_t e) {
       if (!(own & (1u << l))) continue;  // each edge once, from the triangle that owns it
       uint32_t c = w[l], d = w[(l + 1) % 3];
       if (c > d) { const uint32_t tmp = c; c = d; d = tmp; }
-      if (sew_neighbours(s.model, c, a) || sew_neighbours(s.model, c, b) || sew_neighbours(s.model, d, a) ||
-          sew_neighbours(s.model, d, b))
-        continue;
+      if (c == a || c == b || d == a || d == b) continue;
       if (c < a || (c == a && d < b)) continue;  // the pair is found from the other edge
       const DVec3 yc = dvec(s.x_next[c]), yd = dvec(s.x_next[d]);
       double u, v;

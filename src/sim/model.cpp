@@ -57,8 +57,6 @@ void weld_seams(ClothModel& m) {
   m.collision_triangles.resize(m.triangles.size());
   for (size_t k = 0; k < m.triangles.size(); ++k) m.collision_triangles[k] = m.alias[m.triangles[k]];
   m.tri_alias = m.collision_triangles;
-  if (!m.sew_group.empty())  // the rays skip every triangle of their vertex's group
-    for (uint32_t& c : m.tri_alias) c = m.sew_group[c];
   std::vector<std::pair<uint32_t, uint32_t>> e;
   e.reserve(m.triangles.size());
   std::set<std::pair<uint32_t, uint32_t>> seen;

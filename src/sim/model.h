@@ -46,10 +46,6 @@ struct Piece {
   X(float, adj_k_stiff, adj_k_stiff)         /* null unless a measured fabric's springs stiffen (Spring::k_stiff) */ \
   X(float, adj_rest_start, adj_rest_start)   /* null unless seams close over time: rest lengths at the start */ \
   X(uint32_t, alias, alias)                  /* vertices joined by a seam share one alias */                 \
-  /* Null unless seams are sewn from apart: per vertex the smallest vertex joined to it by welds and */      \
-  /* stitches. Features of one group are neighbours (sew_neighbours): the contact, the bound and the */      \
-  /* rays leave them alone, so that the two sides of a stitch close onto each other. */                     \
-  X(uint32_t, sew_group, sew_group)                                                                          \
   X(uint32_t, triangles, collision_triangles) /* 3 per collision triangle (corners welded across seams) */   \
   X(uint32_t, tri_alias, tri_alias)          /* alias of each collision-triangle corner */                   \
   X(uint32_t, edges, edges)                  /* 2 per edge of the cloth surface */                           \
@@ -85,12 +81,6 @@ struct ModelView {
 
 inline constexpr uint32_t kNoAttachment = 0xFFFFFFFFu;
 
-// The vertex's sew group (itself when nothing is stitched).
-RC_HD uint32_t sew_group_of(const ModelView& m, uint32_t v) { return m.sew_group ? m.sew_group[v] : v; }
-// Two vertices of one sew group (the same vertex, welded or stitched together): neighbours.
-RC_HD bool sew_neighbours(const ModelView& m, uint32_t a, uint32_t b) {
-  return a == b || (m.sew_group && m.sew_group[a] == m.sew_group[b]);
-}
 
 struct ClothModel {
   std::vector<Piece> pieces;
@@ -105,7 +95,6 @@ struct ClothModel {
   // Seams sewn from apart: 2 vertices per stitch (each also a Seam spring of rest length 0), and the
   // scene seam each belongs to. Welded seams have none (their pairs share an alias).
   std::vector<uint32_t> stitches, stitch_seam;
-  std::vector<uint32_t> sew_group;  // see RAYCLOTH_MODEL_ARRAYS; empty when nothing is stitched
   std::vector<Vec3> rest_positions;  // each panel's own shape (a pattern's plane, a mesh's OBJ coordinates)
   float sew_time = 0;                // seconds over which rest lengths go from adj_rest_start to adj_rest
   bool ease_gravity = false;         // gravity eases in over sew_time too (SewingDef::ease_gravity)

@@ -31,9 +31,7 @@ uint32_t find_root(std::vector<uint32_t>& parent, uint32_t i) {
 
 // Welded seams join their pairs into one vertex (weld_seams); sewn ones get a stitch, a spring of
 // rest length 0 whose rest length eases from the pair's start distance while the seams close.
-// Returns the union-find parents of the welded pairs.
-std::vector<uint32_t> join_seams(ClothModel& m, const SceneDef& s, const std::vector<PanelMesh>& meshes,
-                                 const SeamPairs& seam_pairs) {
+void join_seams(ClothModel& m, const SceneDef& s, const std::vector<PanelMesh>& meshes, const SeamPairs& seam_pairs) {
   const auto& pairs = seam_pairs.pairs;
   const auto& pair_seam = seam_pairs.seam;
   std::vector<uint32_t> parent(m.num_vertices());
@@ -72,7 +70,6 @@ std::vector<uint32_t> join_seams(ClothModel& m, const SceneDef& s, const std::ve
   }
   m.alias.resize(m.num_vertices());
   for (uint32_t i = 0; i < m.num_vertices(); ++i) m.alias[i] = find_root(parent, i);
-  return parent;
 }
 
 // A [first, last] range of a panel's vertices (pins and attachments), as global vertex ids.
@@ -146,18 +143,6 @@ void add_attachment_vertices(ClothModel& m, const SceneDef& s, const std::vector
   }
 }
 
-// Sew groups: welded partners and stitched pairs, each group named by its smallest vertex.
-void add_sew_groups(ClothModel& m, std::vector<uint32_t> parent) {
-  std::vector<uint32_t> group(m.num_vertices());
-  for (uint32_t i = 0; i < m.num_vertices(); ++i) group[i] = find_root(parent, i);
-  for (size_t k = 0; k + 1 < m.stitches.size(); k += 2) {
-    const uint32_t ra = find_root(group, m.stitches[k]), rb = find_root(group, m.stitches[k + 1]);
-    group[std::max(ra, rb)] = std::min(ra, rb);
-  }
-  m.sew_group.resize(m.num_vertices());
-  for (uint32_t i = 0; i < m.num_vertices(); ++i) m.sew_group[i] = find_root(group, i);
-}
-
 }  // namespace
 
 ClothModel build_cloth_model(const SceneDef& s) {
@@ -166,10 +151,9 @@ ClothModel build_cloth_model(const SceneDef& s) {
   std::vector<PanelMesh> meshes = mesh_panels(s);
   const SeamPairs pairs = pair_seams(s, meshes);
   for (size_t pi = 0; pi < s.panels.size(); ++pi) add_panel(m, s, pi, meshes[pi]);
-  std::vector<uint32_t> parent = join_seams(m, s, meshes, pairs);
+  join_seams(m, s, meshes, pairs);
   add_pins(m, s, meshes);
   add_attachment_vertices(m, s, meshes);
-  if (!m.stitches.empty()) add_sew_groups(m, std::move(parent));
   weld_seams(m);
   for (uint32_t& v : m.stitches) v = m.alias[v];
   // Rest lengths at the placed start (after welding): where the springs start when seams close

@@ -45,7 +45,7 @@ RC_HD Vec3 attachment_force(const StepView& s, uint32_t i) {
 RC_HD void finish_integrate(const StepView& s, uint32_t i) {
   s.contacts[i] = Contact();
   s.rays[i] = s.model.inv_mass[i] == 0.0f ? Ray() : velocity_ray(s.x[i], s.x_next[i], i, s.coll);
-  s.rays[i].vertex = sew_group_of(s.model, i);  // its alias, or its sew group (model.tri_alias)
+  s.rays[i].vertex = i;  // the ray skips the collision triangles that have it as a corner (model.tri_alias)
   // Checked before any response or bound can hide it: an unstable time step shows here first.
   const Vec3 vn = s.v_next[i];
   const bool runaway = !is_finite(vn) || !is_finite(s.x_next[i]) || fabsf(vn.x) > kRunawaySpeed ||
