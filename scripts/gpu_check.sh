@@ -34,7 +34,7 @@ for s in $steps; do case $s in
   walking_skirt) step walking_skirt 60 "$B/raycloth" run scenes/walking_skirt.json --device cuda --duration 0.3 -o /tmp/skirt_cuda ;;
   garment) step garment 60 "$B/raycloth" run scenes/garment_on_man.json --device cuda --duration 0.2 -o /tmp/garment_cuda ;;
   garments) TAILN=30 step garments "${GARMENTS_LIMIT:-400}" "$B/raycloth" batch scenes/sweeps/garmentcode_all.json --out /tmp/garments \
-              --jobs "${GARMENT_JOBS:-20}" --device cuda --table -q
+              --jobs "${GARMENT_JOBS:-4}" --device cuda --table -q
             (cd /tmp/garments && tar -czf "$out/garments.tar.gz" results.* cases/*/run.json cases/*/*.log 2>/dev/null) ;;
   sanitize) TAILN=25 step sanitize 90 compute-sanitizer --tool memcheck --leak-check no \
             "$B/raycloth_tests" --gtest_filter='CudaParity.DefaultSceneMatchesCpuCloselyBeforeContact:CudaParity.MovingObstacleMatchesCpu' ;;
