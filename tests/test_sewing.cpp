@@ -171,6 +171,32 @@ TEST(Sewing, WeldingAgainAsStitchesCloseLeavesEveryGroupFree) {
   EXPECT_EQ(pinned, pinned_on_top) << "a group welded from a closed stitch is pinned";
 }
 
+// A stitch still open between two welded neighbours is welded with them at the next weld check, when
+// it is no wider than they are apart: where its two sides lie crossed, the bound lets them touch but
+// never pass, and they froze there (the pencil dress's skirt on the walking man: four vertices, from
+// 0.45 s to the end, one of them inside a thigh once he walked).
+TEST(Sewing, AStitchLeftOpenBetweenTwoWeldedOnesIsWeldedWithThem) {
+  SceneDef s = two_squares_sewn();
+  s.sewing.close_time = 0;
+  s.seams[0].stiffness = 1e-6f;  // the stitches do not pull: only the weld check closes them
+  Simulator sim(s);
+  const ClothModel& m = sim.model();
+  const size_t count = m.stitch_seam.size();
+  ASSERT_GE(count, 5u);
+  // Panel b moved onto a's right side, so that every stitch is closed but the middle one, whose b side
+  // stands 9 mm off: beyond the 6 mm tolerance, nearer than its neighbours are to each other (25 mm).
+  std::vector<Vec3> x = sim.positions();
+  for (Vec3& p : x)
+    if (p.x > 0) p.x -= 0.1f;
+  const size_t mid = count / 2;
+  const uint32_t side_b = x[m.stitches[2 * mid]].x > -0.05f ? m.stitches[2 * mid] : m.stitches[2 * mid + 1];
+  x[side_b].z += 0.009f;
+  sim.set_state(x, std::vector<Vec3>(x.size(), make_vec3(0, 0, 0)));
+  sim.step(int(std::lround(0.002 / s.time.dt)));  // to the first weld check
+  EXPECT_EQ(sim.stitches_welded(), count);
+  EXPECT_EQ(test::step_checked(sim, 50, 10), "");
+}
+
 TEST(GarmentFit, TheNeckLineOfAGarmentOnABodyIsTheBodys) {
   const fs::path d = temp_dir("neck");
   write(d / "body.obj", boxes_obj(kBody));

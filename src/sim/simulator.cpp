@@ -119,7 +119,8 @@ void Simulator::rebuild_backend() {
   synced_ = true;
 }
 
-// Joins every open stitch whose two vertices are within the close tolerance into one vertex (the
+// Joins every open stitch whose two vertices are within the close tolerance, and every open stitch
+// between two welded neighbours of its seam no wider than they are apart, into one vertex (the
 // group's centroid, its mass-weighted velocity): the model is welded again (sim/model.h,
 // weld_seams) and the backend rebuilt from the current state. Returns how many were welded.
 size_t Simulator::weld_closed_stitches() {
@@ -132,6 +133,23 @@ size_t Simulator::weld_closed_stitches() {
   for (size_t k = 0; k + 1 < m.stitches.size(); k += 2) {
     const uint32_t ra = alias[m.stitches[k]], rb = alias[m.stitches[k + 1]];
     if (ra == rb || length(x_[ra] - x_[rb]) > tol) continue;
+    const uint32_t lo = std::min(ra, rb), hi = std::max(ra, rb);
+    for (uint32_t& r : alias)
+      if (r == hi) r = lo;
+    ++welded;
+  }
+  // A stitch still open between two welded neighbours of its seam is welded too, when it is no wider
+  // than they are apart: its two sides are held at both ends, and where they lie crossed (each side's
+  // edge to a welded neighbour crossing the other's) the bound lets them touch but never pass, so they
+  // would freeze there, touching, for the rest of the run (the pencil dress's skirt: four vertices).
+  const size_t count = m.stitch_seam.size();
+  auto joined = [&](size_t k) { return alias[m.stitches[2 * k]] == alias[m.stitches[2 * k + 1]]; };
+  for (size_t k = 1; k + 1 < count; ++k) {
+    if (m.stitch_seam[k - 1] != m.stitch_seam[k] || m.stitch_seam[k + 1] != m.stitch_seam[k]) continue;
+    if (joined(k) || !joined(k - 1) || !joined(k + 1)) continue;
+    const uint32_t ra = alias[m.stitches[2 * k]], rb = alias[m.stitches[2 * k + 1]];
+    const float span = length(x_[alias[m.stitches[2 * k - 2]]] - x_[alias[m.stitches[2 * k + 2]]]);
+    if (length(x_[ra] - x_[rb]) > span) continue;
     const uint32_t lo = std::min(ra, rb), hi = std::max(ra, rb);
     for (uint32_t& r : alias)
       if (r == hi) r = lo;
