@@ -104,11 +104,14 @@ Action add_fabric_command(CLI::App& app) {
         const lab::CantileverResult r = lab::cantilever_test(m, o);
         if (!a->quiet)
           for (const auto& t : r.tries) std::cout << fmt::format("overhang {:.2f} cm: chord {:.2f} degrees below level\n", 100 * t.overhang, t.angle);
+        // Under 4 cells there is no coarser grid of 2 or more to extrapolate from: the figure is the grid's own.
+        const std::string how = r.bending_length_coarse > 0
+                                    ? fmt::format("{:.3f} cm with {} cells, {:.3f} cm with {}, extrapolated", 100 * r.bending_length_fine,
+                                                  r.segments, 100 * r.bending_length_coarse, r.segments / 2)
+                                    : fmt::format("{} cells, not extrapolated", r.segments);
         std::cout << fmt::format(
-            "{}: bending length c = {:.3f} cm ({:.3f} cm with {} cells, {:.3f} cm with {}, extrapolated), flexural rigidity "
-            "G = W c^3 = {:.1f} mg cm; (B/W)^(1/3) = {:.3f} cm ({:+.1f} %)\n",
-            a->fabric, 100 * r.bending_length, 100 * r.bending_length_fine, r.segments, 100 * r.bending_length_coarse,
-            r.segments / 2, r.flexural_rigidity, 100 * r.predicted, 100 * (r.bending_length / r.predicted - 1));
+            "{}: bending length c = {:.3f} cm ({}), flexural rigidity G = W c^3 = {:.1f} mg cm; (B/W)^(1/3) = {:.3f} cm ({:+.1f} %)\n",
+            a->fabric, 100 * r.bending_length, how, r.flexural_rigidity, 100 * r.predicted, 100 * (r.bending_length / r.predicted - 1));
         j["bending_length_fine_cm"] = 100 * r.bending_length_fine;
         j["segments"] = r.segments;
         j["bending_length_coarse_cm"] = 100 * r.bending_length_coarse;

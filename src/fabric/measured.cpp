@@ -289,7 +289,15 @@ namespace {
 // row per spring (the diagonals hold a row together too, and a knit's row springs may carry none).
 // Returns false where the row's stretch springs are too weak to give up the bend springs' pull (the
 // grid is then stiffer in the plane than measured along the row).
-bool grid_bend(double bending, double density, double along, double across, double row_modulus, double& stretch, double& bend) {
+// The bend springs are linear: a stretch spring that softens with strain (`stiff` < 0, its stiffness
+// k + stiff w at w = strain / (1/6) up to 1) gives up 4 k_bend from k alone, so its own tangent
+// k - 4 k_bend + 2 stiff w must stay >= 0 up to w = 1. Below that the row's springs still pull as
+// measured together (the bend springs, two cells long, make it up), but the stretch springs alone
+// pull less as they stretch: cells one in two stretch further and the row buckles in its plane
+// (the swimsuit knit pulled at 45 degrees from its warp, cells of 5 mm: k 18.2, stiff -39.6 N/m, the
+// row pushing back at -48 N/m instead of pulling 21 N/m). What the spring cannot give up it keeps.
+bool grid_bend(double bending, double density, double along, double across, double row_modulus, double stiff, double& stretch,
+               double& bend) {
   bend = 0;
   if (!(bending > 0)) return true;
   Continuum c;
@@ -299,8 +307,9 @@ bool grid_bend(double bending, double density, double along, double across, doub
   const double wanted = 8.0 * bending * across / (k2 * std::pow(along, 5));
   double row = row_modulus;
   share_with_bend(row, bend, wanted);
-  const bool fits = stretch >= 4.0 * bend;
-  stretch = std::max(stretch - 4.0 * bend, 0.0);
+  const double keep = -2.0 * std::min(stiff, 0.0);  // the least k that keeps k + 2 stiff >= 0
+  const bool fits = stretch - 4.0 * bend >= keep;
+  stretch = std::max(stretch - 4.0 * bend, keep);
   return fits;
 }
 
@@ -320,8 +329,8 @@ MeasuredGrid measured_grid(const MeasuredData& d, double density, double hx, dou
   g.diag_b = fit.small[3] * area / diag2, g.stiff_b = (fit.stiff[3] - fit.small[3]) * area / diag2;
   const double cu = strain_modulus(stretch_coefficients(d, 0.0, -warp), -warp) * area / (hx * hx);
   const double cv = strain_modulus(stretch_coefficients(d, 0.0, 0.5 * kPi - warp), 0.5 * kPi - warp) * area / (hy * hy);
-  g.bend_fits = grid_bend(measured_bending(d, -warp), density, hx, hy, cu, g.stretch_u, g.bend_u);
-  g.bend_fits &= grid_bend(measured_bending(d, 0.5 * kPi - warp), density, hy, hx, cv, g.stretch_v, g.bend_v);
+  g.bend_fits = grid_bend(measured_bending(d, -warp), density, hx, hy, cu, g.stiff_u, g.stretch_u, g.bend_u);
+  g.bend_fits &= grid_bend(measured_bending(d, 0.5 * kPi - warp), density, hy, hx, cv, g.stiff_v, g.stretch_v, g.bend_v);
   return g;
 }
 
@@ -342,8 +351,9 @@ TriangleShare measured_triangle(const MeasuredData& d, const std::array<double, 
       // lattice (whose springs give 9/8 of their E = k l^2 / A along each edge).
       const double c0 = strain_modulus(stretch_coefficients(d, 0.0, edge_angle[k]), edge_angle[k]);
       const double e = kMeasuredStrain, cm = measured_tension(d, e, edge_angle[k]) / ((1 + e) * e);
+      // Softening to no less than half, as fit_families keeps it (a tangent k + 2 dk >= 0).
       t.small[k] = 8.0 / 9.0 * c0 * per;
-      t.stiff[k] = 8.0 / 9.0 * (cm - c0) * per;
+      t.stiff[k] = 8.0 / 9.0 * std::max(cm - c0, -0.5 * c0) * per;
     }
   }
   return t;

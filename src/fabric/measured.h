@@ -95,8 +95,10 @@ struct MeasuredGrid {
   double bend_u = 0, bend_v = 0;
   int clamped = 0;
   // False where a row's stretch springs are weaker than the pull of its bend springs (4 k_bend):
-  // they give up all they have and the grid is stiffer in the plane than measured along that row
-  // (its cells too small for the fabric's bending).
+  // they give up all they can and the grid is stiffer in the plane than measured along that row
+  // (its cells too small for the fabric's bending). A stretch spring that softens with strain
+  // (stiff < 0) can give up only down to k = -2 stiff: every stretch spring keeps a tangent
+  // k + 2 stiff w >= 0 for w in [0, 1] (fabric/stiffening.h), or the row buckles in its plane.
   bool bend_fits = true;
 };
 MeasuredGrid measured_grid(const MeasuredData& d, double density, double hx, double hy, double warp);
