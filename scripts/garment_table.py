@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 # The table of docs/garments.md ("Any garment") from a raycloth batch output folder of
-# scenes/sweeps/garmentcode_all_short.json or garmentcode_all.json: python3 scripts/garment_table.py OUT
+# scenes/sweeps/garmentcode_all_short.json, garmentcode_all.json or garment_pattern_generator_short.json
+# (gc: GarmentCode, gcd: GarmentCodeData, gpg: the older generator): python3 scripts/garment_table.py OUT
 import json, os, sys
 root = sys.argv[1]
 rows = []
 for l in open(os.path.join(root, 'results.jsonl')):
     j = json.loads(l)
     name = j['values']['/garments/0/garmentcode'].split('/')
-    fam = 'gcd' if name[-2] == 'garmentcodedata' else 'gc'
+    fam = {'garmentcodedata': 'gcd', 'garment-pattern-generator': 'gpg'}.get(name[-2], 'gc')
     f = name[-1].replace('_specification.json', '')
     case = os.path.join(root, 'cases', j['id'])
     seams = welded = stitches = None; first_bad = None; stand_bad = walk_bad = None; verts = None; cross_close = None

@@ -148,6 +148,35 @@ TEST(ExactCheck, VertexInsideClosedAndOpenObstacles) {
   EXPECT_EQ(o.vertices_inside, 3u);
 }
 
+// Box [lo, hi] as 12 outward-wound triangles appended to m.
+void add_box(CheckMesh& m, Vec3 lo, Vec3 hi) {
+  const uint32_t base = uint32_t(m.vertices.size());
+  for (int k = 0; k < 8; ++k)
+    m.vertices.push_back(make_vec3((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z));
+  const uint32_t f[12][3] = {{0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}, {0, 1, 5}, {0, 5, 4},
+                             {2, 6, 7}, {2, 7, 3}, {0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}};
+  for (const auto& t : f) m.triangles.insert(m.triangles.end(), {base + t[0], base + t[1], base + t[2]});
+}
+
+TEST(ExactCheck, AVertexInsideWhereTheBodyOverlapsItselfIsToldApart) {
+  // A body of two boxes, B pushed 10 cm into A (an arm swung into the torso). A cloth triangle 5 mm
+  // in front of A's +x face is inside B all the same: a failure, told apart in the summary; one inside
+  // A, nearest to A's own -x face, is not.
+  CheckMesh body;
+  add_box(body, make_vec3(0, 0, 0), make_vec3(1, 1, 1));
+  add_box(body, make_vec3(0.9f, 0.2f, 0.2f), make_vec3(2, 0.8f, 0.8f));
+  CheckMesh cloth;
+  cloth.vertices = {make_vec3(1.004f, 0.5f, 0.5f), make_vec3(1.006f, 0.5f, 0.5f), make_vec3(1.005f, 0.5f, 0.501f),
+                    make_vec3(0.1f, 0.5f, 0.5f), make_vec3(0.11f, 0.5f, 0.5f), make_vec3(0.1f, 0.5f, 0.51f)};
+  cloth.triangles = {0, 1, 2, 3, 4, 5};
+  const CheckReport r = check_state(cloth, body, 0.003);
+  EXPECT_EQ(r.vertices_inside, 6u);
+  EXPECT_EQ(r.vertices_inside_overlap, 3u);
+  EXPECT_TRUE(r.failed());
+  const std::string line = "0 crossings, 6 vertices inside (3 in front of the body's nearest face: its surfaces overlap there); first: vertex";
+  EXPECT_EQ(describe(r).substr(0, line.size()), line);
+}
+
 TEST(ExactCheck, StartStateThatCrossesIsRefusedNamingThePanels) {
   SceneDef s = test::panel_scene(5, 0.4f, 0.5f);
   s.source = "crossing.json";

@@ -341,6 +341,8 @@ void check_vertices_inside(const CheckMesh& cloth, const CheckMesh& obstacles, C
       if (report.first_pinched.size() < CheckReport::kMaxRecords) report.first_pinched.push_back({v.vertex, name, v.gap});
     } else {
       ++report.vertices_inside;
+      const DPoint p = dpoint(cloth.vertices[v.vertex]);
+      if (dot(sub(p, v.nearest), v.normal) > 0) ++report.vertices_inside_overlap;
       if (report.first_inside.size() < CheckReport::kMaxRecords) report.first_inside.push_back({v.vertex, name, v.gap});
     }
   }
@@ -355,6 +357,8 @@ CheckReport check_state(const CheckMesh& cloth, const CheckMesh& obstacles, doub
 
 std::string describe(const CheckReport& r) {
   std::string s = fmt::format("{} crossings, {} vertices inside", r.crossings, r.vertices_inside);
+  if (r.vertices_inside_overlap > 0)
+    s += fmt::format(" ({} in front of the body's nearest face: its surfaces overlap there)", r.vertices_inside_overlap);
   if (r.vertices_pinched > 0)
     s += fmt::format(", {} vertices pinched (body gap {:.3g} mm)", r.vertices_pinched, 1e3 * r.min_pinch_gap);
   if (!r.first_crossings.empty()) {

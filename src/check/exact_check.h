@@ -82,6 +82,10 @@ struct CheckReport {
   // the body's own gap there is below twice the cloth thickness, pinches (vertices_pinched).
   size_t vertices_inside = 0;
   size_t vertices_pinched = 0;
+  // Of vertices_inside, those in front of the body's face nearest to them, inside it all the same
+  // (by the winding number): where the body's own surfaces pass through each other (an arm swung
+  // into the torso) or its mesh is open. Told apart in the one-line summary; failures all the same.
+  size_t vertices_inside_overlap = 0;
   double min_pinch_gap = HUGE_VAL;  // metres, the smallest body gap of a pinched vertex
   size_t closed_obstacles = 0, open_obstacles = 0;
   std::vector<CrossingRecord> first_crossings;  // at most kMaxRecords
