@@ -197,6 +197,24 @@ TEST(Sewing, AStitchLeftOpenBetweenTwoWeldedOnesIsWeldedWithThem) {
   EXPECT_EQ(test::step_checked(sim, 50, 10), "");
 }
 
+// A weld moves both sides of a stitch to their centre, a jump nothing bounded. Here a third sheet
+// lies between the sides (1 mm above a, b 5 mm above a): welding would drag a's seam through it, so
+// the welds are put off, and the run stays uncrossed on every step.
+TEST(Sewing, AWeldThatWouldPutTheSeamThroughClothIsPutOff) {
+  SceneDef s = two_squares_sewn();
+  s.sewing.close_time = 0;
+  s.sewing.close_tolerance = 0.006f;
+  s.collision.thickness = 0.0005f;
+  s.seams[0].stiffness = 1e-6f;  // the stitches do not pull: only the weld check closes them
+  s.time.dt = 1e-4;              // c's small cells
+  s.panels[1].transform.position = {0.05f, 0.5f, 0.005f};                                // b's left side 5 mm behind a's right
+  s.panels.push_back(test::rect_pattern("c", 0.06f, 0.2f, 0.02f, {-0.05f, 0.5f, 0.001f}));  // between them
+  Simulator sim(s);
+  ASSERT_EQ(sim.stitches_welded(), 0u);
+  EXPECT_EQ(test::step_checked(sim, 50, 1), "");  // two weld checks
+  EXPECT_GT(sim.welds_put_off(), 0u);
+}
+
 TEST(GarmentFit, TheNeckLineOfAGarmentOnABodyIsTheBodys) {
   const fs::path d = temp_dir("neck");
   write(d / "body.obj", boxes_obj(kBody));

@@ -18,6 +18,7 @@ nlohmann::json seams_json(const RunReport& r, Simulator& sim) {
   const float tol = seam_close_tolerance(s);
   nlohmann::json j = {{"stitches", sim.model().stitch_seam.size()},
                       {"welded", sim.stitches_welded()},
+                      {"welds_put_off", sim.welds_put_off()},
                       {"close_time", s.sewing.close_time},
                       {"close_tolerance", tol}};
   const FrameRecord* at_close = nullptr;
