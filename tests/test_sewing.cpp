@@ -215,6 +215,22 @@ TEST(Sewing, AWeldThatWouldPutTheSeamThroughClothIsPutOff) {
   EXPECT_GT(sim.welds_put_off(), 0u);
 }
 
+// Nor may a weld put the welded vertex inside a body: here a 4 mm slab stands between the two sides
+// (1 mm from each), so their centre would be inside it; the welds are put off.
+TEST(Sewing, AWeldThatWouldPutTheSeamInsideABodyIsPutOff) {
+  SceneDef s = two_squares_sewn();
+  s.sewing.close_time = 0;
+  s.sewing.close_tolerance = 0.006f;
+  s.collision.thickness = 0.0005f;
+  s.seams[0].stiffness = 1e-6f;
+  s.panels[1].transform.position = {0.05f, 0.5f, 0.006f};                         // b's left side 6 mm behind a's right
+  s.obstacles.push_back(test::box_obstacle({0.04f, 0.3f, 0.004f}, {-0.05f, 0.6f, 0.003f}));  // between them
+  Simulator sim(s);
+  EXPECT_EQ(test::step_checked(sim, 30, 1), "");  // three weld checks
+  EXPECT_EQ(sim.stitches_welded(), 0u);
+  EXPECT_GT(sim.welds_put_off(), 0u);
+}
+
 TEST(GarmentFit, TheNeckLineOfAGarmentOnABodyIsTheBodys) {
   const fs::path d = temp_dir("neck");
   write(d / "body.obj", boxes_obj(kBody));

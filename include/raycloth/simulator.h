@@ -90,7 +90,8 @@ class Simulator {
   // Stitches (seams sewn from apart) welded into one vertex so far: every kWeldCheckTime, each
   // stitch within the close tolerance is welded.
   uint64_t stitches_welded() const { return stitches_welded_; }
-  // Welds of closed stitches put off (tried again later) because they would have crossed the cloth.
+  // Welds of closed stitches put off (tried again later): they would have put a cloth edge through a
+  // cloth triangle or a welded vertex inside a body.
   uint64_t welds_put_off() const { return welds_put_off_; }
 
   // Edits between steps (src/sim/simulator_edit.cpp), for callers that drive the simulation
@@ -116,7 +117,7 @@ class Simulator {
   int step_iterations_ = 0;  // with these sweeps (the implicit integrator)
   std::vector<PanelMove> panel_moves_;
   uint64_t stitches_welded_ = 0, weld_from_ = 0, weld_every_ = 1;
-  uint64_t welds_put_off_ = 0;  // stitch welds skipped because they would have crossed the cloth
+  uint64_t welds_put_off_ = 0;  // stitch welds skipped: they would have crossed the cloth or entered a body
   void advance(int n);
   size_t weld_closed_stitches();
   void rebuild_backend();

@@ -139,6 +139,30 @@ size_t welded_crossings(const ClothModel& m, const std::vector<uint32_t>& alias,
   return r.crossings;
 }
 
+// The centres of the groups of `alias` that differ from the model's (welded by it), as a check mesh
+// of points (one degenerate triangle each), and whether any lies strictly inside an obstacle posed as
+// `body` has it: a weld of two sides on either side of a limb must wait.
+bool welded_inside(const ClothModel& m, const CheckMesh& body, const std::vector<uint32_t>& alias,
+                   const std::vector<Vec3>& x) {
+  if (body.num_triangles() == 0) return false;
+  std::vector<Vec3> sum(x.size(), make_vec3(0, 0, 0));
+  std::vector<float> members(x.size(), 0.0f);
+  std::vector<char> changed(x.size(), 0);
+  for (uint32_t i = 0; i < x.size(); ++i) {
+    sum[alias[i]] += x[i];
+    members[alias[i]] += 1.0f;
+    if (alias[i] != m.alias[i]) changed[alias[i]] = 1;
+  }
+  CheckMesh points;
+  for (uint32_t r = 0; r < x.size(); ++r) {
+    if (!changed[r]) continue;
+    const uint32_t k = uint32_t(points.vertices.size());
+    points.vertices.push_back(sum[r] / members[r]);
+    points.triangles.insert(points.triangles.end(), {k, k, k});
+  }
+  return !points.vertices.empty() && !find_vertices_inside(points, body).empty();
+}
+
 }  // namespace
 
 // Joins every open stitch whose two vertices are within the close tolerance, and every open stitch
@@ -184,14 +208,21 @@ size_t Simulator::weld_closed_stitches() {
   // through a cloth triangle (the standing-lapel top: 3 to 21 edges through cloth from the weld at
   // 0.47 s on). When the welds together would, each is tried in turn and kept only if it adds none;
   // one put off is tried again at the next check, nearer.
+  // Nor may it put the welded vertex inside the body (two sides on either side of a wrist).
   size_t welded = chosen.size();
   const size_t before = welded_crossings(m, alias, x_);
-  if (welded_crossings(m, trial, x_) > before) {
+  std::vector<Vec3> posed, velocities;
+  obstacles_->pose_at(time(), posed, velocities);
+  const CheckMesh body = obstacle_check_mesh(*obstacles_, posed);
+  auto fine = [&](const std::vector<uint32_t>& a) {
+    return welded_crossings(m, a, x_) <= before && !welded_inside(m, body, a, x_);
+  };
+  if (!fine(trial)) {
     trial = alias;
     welded = 0;
     for (size_t k : chosen) {
       std::vector<uint32_t> next = trial;
-      if (!join(next, k) || welded_crossings(m, next, x_) > before) continue;
+      if (!join(next, k) || !fine(next)) continue;
       trial = std::move(next);
       ++welded;
     }
