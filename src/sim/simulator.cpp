@@ -222,11 +222,14 @@ size_t Simulator::weld_closed_stitches() {
     welded = 0;
     for (size_t k : chosen) {
       std::vector<uint32_t> next = trial;
-      if (!join(next, k) || !fine(next)) continue;
+      if (!join(next, k)) continue;  // joined already through the welds kept before it
+      if (!fine(next)) {
+        ++welds_put_off_;
+        continue;
+      }
       trial = std::move(next);
       ++welded;
     }
-    welds_put_off_ += chosen.size() - welded;
     if (welded == 0) return 0;
   }
   alias = std::move(trial);
