@@ -228,7 +228,6 @@ RC_HD void stage_bound(const StepView& s, uint32_t t, uint32_t pass) {
     const DVec3 q[3] = {dvec(x[w[0]]), dvec(x[w[1]]), dvec(x[w[2]])};
     const Aabb box2 = aabb_union(segment_box(x[w[0]], x[w[1]]), point_box(x[w[2]]));
     const Aabb query2 = aabb_grow(box2, grow);
-    const ModelView& mv = s.model;
     auto in_t = [&](uint32_t k) { return k == v[0] || k == v[1] || k == v[2]; };
     auto in_t2 = [&](uint32_t k) { return k == w[0] || k == w[1] || k == w[2]; };
     for (int k = 0; k < 3; ++k) {
