@@ -24,15 +24,22 @@
 namespace raycloth {
 
 
-void weld_seams(ClothModel& m) {
-  const uint32_t n = m.num_vertices();
+std::vector<Vec3> welded_positions(const std::vector<uint32_t>& alias, const std::vector<Vec3>& x) {
+  const size_t n = x.size();
   std::vector<Vec3> sum(n, make_vec3(0, 0, 0));
   std::vector<uint32_t> members(n, 0u);
   for (uint32_t i = 0; i < n; ++i) {
-    sum[m.alias[i]] += m.initial_positions[i];
-    ++members[m.alias[i]];
+    sum[alias[i]] += x[i];
+    ++members[alias[i]];
   }
-  for (uint32_t i = 0; i < n; ++i) m.initial_positions[i] = sum[m.alias[i]] / float(members[m.alias[i]]);
+  std::vector<Vec3> p(n);
+  for (uint32_t i = 0; i < n; ++i) p[i] = sum[alias[i]] / float(members[alias[i]]);
+  return p;
+}
+
+void weld_seams(ClothModel& m) {
+  const uint32_t n = m.num_vertices();
+  m.initial_positions = welded_positions(m.alias, m.initial_positions);
   // A pinned partner pins its group. Partners of an earlier weld (this runs again as stitches close)
   // already gave their mass and pin to their representative: mass 0 marks them, and their inverse
   // mass of 0 is no pin.

@@ -196,6 +196,9 @@ struct ObstacleSet {
 // the end of each step). Collision triangles, their aliases and the edges use representatives. Run
 // again after more pairs share an alias (stitches welded once closed, Simulator).
 void weld_seams(ClothModel& model);
+// Every vertex at the centre of its group's positions in x (the groups: vertices sharing `alias`),
+// where weld_seams puts them.
+std::vector<Vec3> welded_positions(const std::vector<uint32_t>& alias, const std::vector<Vec3>& x);
 // Fills the per-vertex CSR adjacency and the spring counts from model.springs.
 void build_adjacency(ClothModel& model);
 // Builds the model; throws InputError for seams or pins that do not fit the panels.

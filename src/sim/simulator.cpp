@@ -124,15 +124,7 @@ namespace {
 // Edges through triangles in the cloth welded as `alias` says, every group at the centre of its
 // members' positions in x (where weld_seams would put it).
 size_t welded_crossings(const ClothModel& m, const std::vector<uint32_t>& alias, const std::vector<Vec3>& x) {
-  std::vector<Vec3> sum(x.size(), make_vec3(0, 0, 0));
-  std::vector<float> members(x.size(), 0.0f);
-  for (uint32_t i = 0; i < x.size(); ++i) {
-    sum[alias[i]] += x[i];
-    members[alias[i]] += 1.0f;
-  }
-  std::vector<Vec3> p(x.size());
-  for (uint32_t i = 0; i < x.size(); ++i) p[i] = sum[alias[i]] / members[alias[i]];
-  CheckMesh mesh = cloth_check_mesh(m, p);
+  CheckMesh mesh = cloth_check_mesh(m, welded_positions(alias, x));
   for (size_t k = 0; k < m.triangles.size(); ++k) mesh.triangles[k] = alias[m.triangles[k]];
   CheckReport r;
   check_cloth_crossings(mesh, r);
@@ -145,19 +137,15 @@ size_t welded_crossings(const ClothModel& m, const std::vector<uint32_t>& alias,
 bool welded_inside(const ClothModel& m, const CheckMesh& body, const std::vector<uint32_t>& alias,
                    const std::vector<Vec3>& x) {
   if (body.num_triangles() == 0) return false;
-  std::vector<Vec3> sum(x.size(), make_vec3(0, 0, 0));
-  std::vector<float> members(x.size(), 0.0f);
+  const std::vector<Vec3> p = welded_positions(alias, x);
   std::vector<char> changed(x.size(), 0);
-  for (uint32_t i = 0; i < x.size(); ++i) {
-    sum[alias[i]] += x[i];
-    members[alias[i]] += 1.0f;
+  for (uint32_t i = 0; i < x.size(); ++i)
     if (alias[i] != m.alias[i]) changed[alias[i]] = 1;
-  }
   CheckMesh points;
   for (uint32_t r = 0; r < x.size(); ++r) {
     if (!changed[r]) continue;
     const uint32_t k = uint32_t(points.vertices.size());
-    points.vertices.push_back(sum[r] / members[r]);
+    points.vertices.push_back(p[r]);
     points.triangles.insert(points.triangles.end(), {k, k, k});
   }
   return !points.vertices.empty() && !find_vertices_inside(points, body).empty();
@@ -328,6 +316,7 @@ void Simulator::save_state(ByteWriter& out) {
   out.pod(times_);
   // Which stitches have been welded (the model's seam groups now).
   out.u64(stitches_welded_);
+  out.u64(welds_put_off_);
   out.vec(model_->alias);
   backend_->save(out);
 }
@@ -338,6 +327,7 @@ void Simulator::restore_state(ByteReader& in) {
   in.pod(totals_);
   in.pod(times_);
   const uint64_t welded = in.u64();
+  welds_put_off_ = in.u64();
   std::vector<uint32_t> alias;
   in.vec(alias, model_->num_vertices(), "seam groups");
   if (alias != model_->alias) {
