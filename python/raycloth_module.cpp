@@ -435,6 +435,7 @@ vertices_inside, vertices_pinched, min_pinch_gap, pairs_tested, vertices_tested,
             d["hits"] = s.last_hits();
             for_each_total(s.totals(), [&](const char* name, const char*, uint64_t value) { d[name] = value; });
             d["max_residual"] = s.totals().max_residual;
+            d["max_obstacle_move"] = s.totals().max_obstacle_move;
             const StageTimes& t = s.stage_times();
             d["stage_seconds"] = py::dict(py::arg("integrate") = t.integrate, py::arg("update") = t.update,
                                           py::arg("cast") = t.cast, py::arg("respond") = t.respond,
@@ -445,8 +446,8 @@ vertices_inside, vertices_pinched, min_pinch_gap, pairs_tested, vertices_tested,
 entry in the collision buffer in the last step), pushed_by_obstacles, clamped_by_bound,
 obstacle_conflicts, push_shortened_by_bound, bound_refreshes, bound_partial_refreshes,
 cloth_contact_pairs, moved_by_contact_solve, contact_solve_rounds, bound_passes (sums over all
-steps), unconverged_steps and max_residual (the implicit integrator), and stage_seconds (wall-clock
-seconds per stage).)")
+steps), unconverged_steps and max_residual (the implicit integrator), max_obstacle_move (the largest
+move of an obstacle vertex in one step, metres), and stage_seconds (wall-clock seconds per stage).)")
       .def("__repr__", [](PySimulator& p) {
         return "<raycloth.Simulator '" + p.sim->scene().name + "' on " + p.sim->device() + ": " +
                std::to_string(p.sim->model().num_vertices()) + " vertices, step " + std::to_string(p.sim->steps()) + ">";

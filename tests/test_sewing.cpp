@@ -231,6 +231,24 @@ TEST(Sewing, AWeldThatWouldPutTheSeamInsideABodyIsPutOff) {
   EXPECT_GT(sim.welds_put_off(), 0u);
 }
 
+// A weld rebuilds the backend mid-run. The rebuilt one must start from the bodies where they are:
+// posed at t = 0 instead, its first step saw each body jump from its starting pose to its present
+// one (a walking man's arm 10 to 30 cm), and took that for the step's move: the contact's reach and
+// gaps grew with it and cloth was thrown in front of faces of the far side of the body (the
+// garments on the walking man: 4 to 27 vertices inside him from the first weld of the walk on).
+TEST(Sewing, AWeldWhileABodyMovesLeavesEachStepTheBodysOwnMove) {
+  SceneDef s = two_squares_sewn();
+  ObstacleDef box = test::box_obstacle({0.1f, 0.1f, 0.1f}, {0, -1.0f, 0});  // far below the cloth
+  MotionDef motion;
+  motion.velocity = {1, 0, 0};
+  box.motion = motion;
+  s.obstacles.push_back(box);
+  Simulator sim(s);
+  sim.step(2500);  // 0.5 s: the seam welds at about 0.4 s, the box 0.4 m from where it started
+  ASSERT_GT(sim.stitches_welded(), 0u);
+  EXPECT_NEAR(sim.totals().max_obstacle_move, 1.0 * s.time.dt, 1e-6);
+}
+
 TEST(GarmentFit, TheNeckLineOfAGarmentOnABodyIsTheBodys) {
   const fs::path d = temp_dir("neck");
   write(d / "body.obj", boxes_obj(kBody));

@@ -54,8 +54,11 @@ class Simulator {
   const std::vector<Vec3>& positions();   // state at time(), copied from the device if needed
   const std::vector<Vec3>& velocities();
   // The displacement bound's balls: per vertex the centre and the radius it must stay within
-  // (tests of the bound's invariant). False on a backend that does not give them.
-  bool bound_balls(std::vector<Vec3>& centre, std::vector<float>& radius);
+  // (tests of the bound's invariant), and (planes, optional) the directions it may not move against
+  // from the centre, where a pair too near for a ball gave it planes (sim/bound.h). False on a
+  // backend that does not give them.
+  bool bound_balls(std::vector<Vec3>& centre, std::vector<float>& radius,
+                   std::vector<std::vector<Vec3>>* planes = nullptr);
   std::vector<Vec3> obstacle_vertices() const;  // world space at time()
   uint64_t steps() const { return steps_; }
   double time() const { return double(steps_) * scene_.time.dt; }

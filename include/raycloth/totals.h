@@ -28,6 +28,7 @@ struct RunTotals {
   uint64_t refreshes = 0;          // steps that recomputed the displacement bound of every vertex
   uint64_t partial_refreshes = 0;  // steps that recomputed it for the vertices that needed room
   double max_residual = 0;         // implicit integrator: the largest last-sweep step of any step (metres)
+  double max_obstacle_move = 0;    // the largest move of an obstacle vertex in one step (metres)
 
   void add(const RunTotals& o) {
 #define RAYCLOTH_TOTAL_ADD(name, json, section) name += o.name;
@@ -36,6 +37,7 @@ struct RunTotals {
     refreshes += o.refreshes;
     partial_refreshes += o.partial_refreshes;
     max_residual = max_residual > o.max_residual ? max_residual : o.max_residual;
+    max_obstacle_move = max_obstacle_move > o.max_obstacle_move ? max_obstacle_move : o.max_obstacle_move;
   }
 };
 

@@ -88,6 +88,8 @@ nlohmann::json run_json(const RunReport& r, Simulator& sim) {
   for_each_total(sim.totals(), [&](const char* name, const char* section, uint64_t value) {
     if (std::string(section) == "contact") j["contact"][name] = value;
   });
+  // How fast the bodies moved: the largest move of an obstacle vertex in one step (metres).
+  j["contact"]["max_obstacle_move"] = sim.totals().max_obstacle_move;
   // The integrator, and for the implicit one its convergence: the sweeps per step, the tolerance on
   // the last sweep's largest step, the steps (substeps) that did not reach it and the largest such step.
   const TimeDef& td = sim.scene().time;

@@ -27,8 +27,10 @@ class Backend {
   virtual void download(std::vector<Vec3>& x, std::vector<Vec3>& v) = 0;
   // The displacement bound's balls (centre and radius per vertex), for tests of its invariant;
   // false where the backend does not give them.
-  virtual bool download_balls(std::vector<Vec3>& centre, std::vector<float>& radius) {
-    (void)centre, (void)radius;
+  // planes (optional): per vertex, the planes it keeps (planes_of in sim/bound.h).
+  virtual bool download_balls(std::vector<Vec3>& centre, std::vector<float>& radius,
+                              std::vector<std::vector<Vec3>>* planes) {
+    (void)centre, (void)radius, (void)planes;
     return false;
   }
   // Checkpoints: everything the next step reads that is not a function of the scene and the time.
@@ -56,6 +58,9 @@ struct BackendInput {
   const ClothModel* model;
   const ObstacleSet* obstacles;
   StepSettings substep;
+  // The simulated time of the state the backend starts from: the obstacles are posed there (a
+  // backend rebuilt mid-run, as after a weld, must not see the body jump from its t = 0 pose).
+  double time = 0;
   // The step taken: the substep where one is given, else the scene's time step and sweeps.
   StepSettings step() const {
     return substep.dt > 0 ? substep : StepSettings{scene->time.dt, scene->time.iterations};
@@ -104,6 +109,7 @@ StepView make_step_view(const BackendInput& in, uint64_t step, const StepBuffers
   s.obstacle_bvh = b.obstacle_bvh;
   s.cloth_bvh = b.cloth_bvh;
   s.bodies_move = b.bodies_move;
+  s.bound_planes = b.bodies_move || !model.stitches.empty();
   s.obstacle_prev = b.obstacle_prev;
   s.num_obstacle_vertices = b.num_obstacle_vertices;
   return s;

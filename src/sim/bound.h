@@ -6,6 +6,7 @@
 // further passes of a step whose pushed vertices the clamp held back. The sequence is in sim/step.h.
 #pragma once
 #include <cstdint>
+#include <vector>
 
 #include "sim/stages.h"
 
@@ -27,10 +28,64 @@ inline constexpr uint32_t kBoundMaxAge = 8;
 inline constexpr uint32_t kBoundCrowd = 16;
 inline constexpr float kBoundNear = 0.25f;
 
+// Planes instead of balls. A ball of kBoundFactor of a pair's distance, less the slack, lets two
+// features that come within a few micrometres of each other (cloth pulled into a tight fold, the two
+// sides of a seam folded back on each other) approach until the slack leaves their vertices no room
+// at all: they stop where they are, for good, and a body moving on walks into them. A pair nearer
+// than kBoundPlaneShare of the thickness (and farther than kBoundPlaneMin, well above the rounding
+// of float positions) gives its vertices planes instead: the two features are convex, so the plane
+// through their closest points' midpoint, normal to the line between them, has the one on its one
+// side and the other on its other; each vertex may move anywhere that does not take it towards the
+// other side (measured from its ball's centre), so the two can never meet, and they may part at
+// once (where a body moves or seams are sewn: StepView::bound_planes). The pair's distance then
+// does not bound their balls. A vertex with more than kBoundPlanes
+// planes keeps none of them: the nearest pair that gave one bounds its ball (plane_near), as
+// without planes, whatever the order the pairs were found in.
+inline constexpr float kBoundPlaneShare = 0.1f;
+inline constexpr double kBoundPlaneMin = 2e-6;
+// How far behind one of its planes (metres) a vertex may end up after the rounding of its float
+// position: far below the kBoundPlaneMin / 2 that each side has to the plane between them.
+inline constexpr double kBoundPlaneRounding = 1e-7;
+
 // The radius of vertex i's ball: kBoundFactor of the nearest non-adjacent distance at x_ref (or of
-// the radius it was looked for within, when nothing was nearer), less the slack.
+// the radius it was looked for within, when nothing was nearer), less the slack. Pairs that gave
+// the vertex a plane are not among them, unless it has more planes than it keeps.
 RC_HD float allowance_of(const StepView& s, uint32_t i) {
-  return fmaxf(0.0f, kBoundFactor * fminf(float_from_bits(s.bound[i]), s.bound_radius[i]) - kBoundSlack);
+  float nearest = fminf(float_from_bits(s.bound[i]), s.bound_radius[i]);
+  if (s.plane_count[i] > kBoundPlanes) nearest = fminf(nearest, float_from_bits(s.plane_near[i]));
+  return fmaxf(0.0f, kBoundFactor * nearest - kBoundSlack);
+}
+
+// The planes vertex i keeps (0 when it has none, or more than it keeps), into n, in an order that
+// does not depend on the order they were found in (the threads').
+RC_HD uint32_t planes_of(const StepView& s, uint32_t i, Vec3* n) {
+  const uint32_t count = s.plane_count[i];
+  if (count == 0u || count > kBoundPlanes) return 0u;
+  for (uint32_t k = 0; k < count; ++k) {
+    const Vec3 p = s.planes[i].n[k];
+    uint32_t j = k;
+    for (; j > 0 && (p.x < n[j - 1].x || (p.x == n[j - 1].x && (p.y < n[j - 1].y || (p.y == n[j - 1].y && p.z < n[j - 1].z)))); --j)
+      n[j] = n[j - 1];
+    n[j] = p;
+  }
+  return count;
+}
+
+// Every vertex's planes (host): what the backends give Simulator::bound_balls.
+inline void planes_by_vertex(const StepView& s, uint32_t n, std::vector<std::vector<Vec3>>& out) {
+  out.assign(n, {});
+  Vec3 dirs[kBoundPlanes];
+  for (uint32_t i = 0; i < n; ++i) out[i].assign(dirs, dirs + planes_of(s, i, dirs));
+}
+
+// Whether position p of vertex i lies behind one of its planes.
+RC_HD bool behind_a_plane(const StepView& s, uint32_t i, Vec3 p) {
+  Vec3 n[kBoundPlanes];
+  const uint32_t count = planes_of(s, i, n);
+  const DVec3 d = dvec(p) - dvec(s.x_ref[i]);
+  for (uint32_t k = 0; k < count; ++k)
+    if (ddot(d, dvec(n[k])) < -kBoundPlaneRounding) return true;
+  return false;
 }
 
 RC_HD bool is_free(const StepView& s, uint32_t i) {
@@ -41,7 +96,8 @@ RC_HD bool is_free(const StepView& s, uint32_t i) {
 RC_HD uint32_t stage_wants_refresh(const StepView& s, uint32_t i) {
   if (!is_free(s, i)) return 0u;
   const Vec3 x = s.x_next[i];
-  return is_finite(x) && length(x - s.x_ref[i]) > allowance_of(s, i) ? 1u : 0u;
+  if (!is_finite(x)) return 0u;
+  return length(x - s.x_ref[i]) > allowance_of(s, i) || behind_a_plane(s, i, x) ? 1u : 0u;
 }
 
 // 1 when vertex i leaves a ball that a new bound would likely widen: one that its look-ahead
@@ -102,6 +158,12 @@ RC_HD void stage_bound_reset(const StepView& s, uint32_t i, uint32_t pass) {
   const uint32_t mode = refresh_in_pass(s, pass);
   if (mode == kRefreshNone) return;
   const bool partial = mode == kRefreshPartial;
+  if (!partial) {
+    s.plane_count[i] = 0u;
+    s.plane_near[i] = bits_from_float(INFINITY);
+  }
+  // A partial refresh keeps a marked vertex's planes: measured from x, where it is now on their
+  // allowed side, they only ask more of it.
   if (!partial || refreshing(s, i)) {
     s.x_ref[i] = s.x[i];
     s.bound[i] = bits_from_float(INFINITY);
@@ -192,6 +254,36 @@ RC_HD void bound_partial_pair(const StepView& s, const uint32_t* a, int na, cons
     if (refreshing(s, b[k]) && r < s.bound_radius[b[k]]) atomic_min_nonneg(&s.bound[b[k]], r);
 }
 
+// Full refresh: a plane for vertex i, which may not move against n (see kBoundPlaneShare). Past
+// kBoundPlanes the pair's distance d bounds its ball instead (allowance_of).
+RC_HD void add_plane(const StepView& s, uint32_t i, Vec3 n, float d) {
+  const uint32_t slot = atomic_fetch_add_u32(&s.plane_count[i], 1u);
+  if (slot < kBoundPlanes) s.planes[i].n[slot] = n;
+  atomic_min_nonneg(&s.plane_near[i], d);
+}
+
+// Full refresh: a pair of features a[0..na) and b[0..nb) at squared distance d2, pa and pb their
+// closest points, bounds their vertices: by their balls, or where it is near enough, by planes.
+// `radius`: a pair this far or farther limits nothing (see stage_bound).
+RC_HD void bound_full_pair(const StepView& s, const uint32_t* a, int na, const uint32_t* b, int nb, DVec3 pa, DVec3 pb,
+                           double d2, float radius) {
+  const double dd = sqrt(d2);
+  const float d = float(dd);
+  if (!(d < radius)) return;
+  if (s.bound_planes && dd > kBoundPlaneMin && d < kBoundPlaneShare * s.coll.thickness) {
+    const DVec3 g = pa - pb;
+    const double len = sqrt(ddot(g, g));
+    if (len > 0.5 * kBoundPlaneMin) {
+      const Vec3 n = make_vec3(float(g.x / len), float(g.y / len), float(g.z / len));
+      for (int k = 0; k < na; ++k) add_plane(s, a[k], n, d);
+      for (int k = 0; k < nb; ++k) add_plane(s, b[k], -n, d);
+      return;
+    }
+  }
+  for (int k = 0; k < na; ++k) atomic_min_nonneg(&s.bound[a[k]], d);
+  for (int k = 0; k < nb; ++k) atomic_min_nonneg(&s.bound[b[k]], d);
+}
+
 RC_HD void stage_bound(const StepView& s, uint32_t t, uint32_t pass) {
   const uint32_t mode = refresh_in_pass(s, pass);
   if (mode == kRefreshNone) return;
@@ -211,10 +303,6 @@ RC_HD void stage_bound(const StepView& s, uint32_t t, uint32_t pass) {
   const uint32_t own = s.model.tri_edge_owner[t];
   const Aabb box = aabb_union(segment_box(x[v[0]], x[v[1]]), point_box(x[v[2]]));
   Aabb query = aabb_grow(box, grow);
-  auto bound = [&](uint32_t i, double d2) {
-    const float d = float(sqrt(d2));
-    if (d < radius) atomic_min_nonneg(&s.bound[i], d);
-  };
   bvh_for_each_overlap(s.cloth_bvh, query, [&](uint32_t t2) {
     if (t2 == t) return;
     if (partial) {
@@ -233,14 +321,14 @@ RC_HD void stage_bound(const StepView& s, uint32_t t, uint32_t pass) {
     for (int k = 0; k < 3; ++k) {
       // Corner k of t against t2; corner k of t2 against t.
       if ((own & (8u << k)) && !in_t2(v[k]) && aabb_overlap(query2, point_box(x[v[k]]))) {
-        const double d2 = closest_on_triangle(p[k], q[0], q[1], q[2]).dist2;
-        if (partial) bound_partial_pair(s, &v[k], 1, w, 3, d2);
-        else bound(v[k], d2), bound(w[0], d2), bound(w[1], d2), bound(w[2], d2);
+        const TrianglePoint c = closest_on_triangle(p[k], q[0], q[1], q[2]);
+        if (partial) bound_partial_pair(s, &v[k], 1, w, 3, c.dist2);
+        else bound_full_pair(s, &v[k], 1, w, 3, p[k], q[0] * c.wa + q[1] * c.wb + q[2] * c.wc, c.dist2, radius);
       }
       if ((own2 & (8u << k)) && !in_t(w[k]) && aabb_overlap(query, point_box(x[w[k]]))) {
-        const double d2 = closest_on_triangle(q[k], p[0], p[1], p[2]).dist2;
-        if (partial) bound_partial_pair(s, &w[k], 1, v, 3, d2);
-        else bound(w[k], d2), bound(v[0], d2), bound(v[1], d2), bound(v[2], d2);
+        const TrianglePoint c = closest_on_triangle(q[k], p[0], p[1], p[2]);
+        if (partial) bound_partial_pair(s, &w[k], 1, v, 3, c.dist2);
+        else bound_full_pair(s, &w[k], 1, v, 3, q[k], p[0] * c.wa + p[1] * c.wb + p[2] * c.wc, c.dist2, radius);
       }
     }
     for (int k = 0; k < 3; ++k) {
@@ -252,13 +340,14 @@ RC_HD void stage_bound(const StepView& s, uint32_t t, uint32_t pass) {
         const uint32_t c = w[l], d = w[(l + 1) % 3];
         if (c == a || c == b || d == a || d == b) continue;
         if (!aabb_overlap(ea, segment_box(x[c], x[d]))) continue;
-        const double d2 = segment_segment_dist2(p[k], p[(k + 1) % 3], q[l], q[(l + 1) % 3]);
-        if (partial) {
-          const uint32_t e1[2] = {a, b}, e2[2] = {c, d};
-          bound_partial_pair(s, e1, 2, e2, 2, d2);
-        } else {
-          bound(a, d2), bound(b, d2), bound(c, d2), bound(d, d2);
-        }
+        const DVec3 &pa = p[k], &pb = p[(k + 1) % 3], &qc = q[l], &qd = q[(l + 1) % 3];
+        double u, w2;
+        closest_segment_params(pa, pb, qc, qd, u, w2);
+        const DVec3 ca = pa + (pb - pa) * u, cb = qc + (qd - qc) * w2;
+        const double d2 = ddot(ca - cb, ca - cb);
+        const uint32_t e1[2] = {a, b}, e2[2] = {c, d};
+        if (partial) bound_partial_pair(s, e1, 2, e2, 2, d2);
+        else bound_full_pair(s, e1, 2, e2, 2, ca, cb, d2, radius);
       }
     }
   });
@@ -266,10 +355,48 @@ RC_HD void stage_bound(const StepView& s, uint32_t t, uint32_t pass) {
 
 // Clamp: the vertex stays inside its ball. Along its own move from x it goes as far as the ball
 // allows; its velocity shrinks in proportion. Returns 1 when it shortened the move.
+// Vertex i's planes: a proposed position behind one is moved onto it (the velocity against it
+// removed), plane by plane; one that is then still behind one goes back to x, which every plane
+// allows. Returns 1 when it changed the move.
+RC_HD uint32_t keep_to_planes(const StepView& s, uint32_t i) {
+  Vec3 n[kBoundPlanes];
+  const uint32_t count = planes_of(s, i, n);
+  if (count == 0u) return 0u;
+  const DVec3 r = dvec(s.x_ref[i]);
+  DVec3 p = dvec(s.x_next[i]);
+  Vec3 v = s.v_next[i];
+  bool moved = false;
+  for (uint32_t k = 0; k < count; ++k) {
+    const double c = ddot(p - r, dvec(n[k]));
+    if (!(c < 0.0)) continue;
+    p = p - dvec(n[k]) * c;
+    const float vn = dot(v, n[k]);
+    if (vn < 0.0f) v -= n[k] * vn;
+    moved = true;
+  }
+  if (!moved) return 0u;
+  Vec3 q = make_vec3(float(p.x), float(p.y), float(p.z));
+  for (uint32_t k = 0; k < count; ++k)
+    if (ddot(dvec(q) - r, dvec(n[k])) < -kBoundPlaneRounding) {
+      q = s.x[i];
+      v = make_vec3(0, 0, 0);
+      break;
+    }
+  s.x_next[i] = q;
+  s.v_next[i] = v;
+  return 1u;
+}
+
 RC_HD uint32_t stage_clamp(const StepView& s, uint32_t i) {
   if (!is_free(s, i)) return 0u;
+  // The planes first, then the ball along the move from x: x and the position the planes left are
+  // both on every plane's allowed side, so every point between them is.
+  const uint32_t planed = keep_to_planes(s, i);
   const float allowed = allowance_of(s, i);
-  if (!(length(s.x_next[i] - s.x_ref[i]) > allowed)) return 0u;
+  if (!(length(s.x_next[i] - s.x_ref[i]) > allowed)) {
+    if (planed) s.flags[i] |= kFlagClamped;
+    return planed;
+  }
   // Largest k in [0, 1] with |x + k m - x_ref| <= allowed, in double.
   const DVec3 p = dvec(s.x[i]) - dvec(s.x_ref[i]), m = dvec(s.x_next[i]) - dvec(s.x[i]);
   const double mm = ddot(m, m), pm = ddot(p, m), a = double(allowed);

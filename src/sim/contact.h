@@ -87,6 +87,7 @@ RC_HD void stage_contact_reach(const StepView& s, uint32_t i) {
 // shares no vertex with it was nearer than min(bound, radius), and since then it and every other
 // vertex have drifted at most drift_max.
 RC_HD bool contact_far(const StepView& s, uint32_t i) {
+  if (s.plane_count[i] > 0u) return false;  // a pair too near for a ball gave it a plane
   const float nearest = fminf(float_from_bits(s.bound[i]), s.bound_radius[i]);
   return nearest - length(s.x_next[i] - s.x_ref[i]) - float_from_bits(s.counters->drift_max) >
          kNearFactor * contact_gap(s.coll.thickness, obstacle_reach(s));
@@ -97,6 +98,7 @@ RC_HD bool contact_far(const StepView& s, uint32_t i) {
 // nearer than that at x_ref, less what it and every other vertex have drifted since. Every pair
 // within reach of one of i's edges is then searched from it (kFlagNearCloth).
 RC_HD bool contact_near_by_bound(const StepView& s, uint32_t i, float reach) {
+  if (s.plane_count[i] > 0u) return true;
   return float_from_bits(s.bound[i]) - length(s.x_next[i] - s.x_ref[i]) -
              float_from_bits(s.counters->drift_max) <=
          reach;

@@ -39,6 +39,11 @@ class CpuBackend final : public Backend {
     build_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.collision_indices.data(),
               uint32_t(obstacles_.num_collision_triangles()));
     build_bvh(cloth_bvh_, x().data(), model_.collision_triangles.data(), model_.num_triangles());
+    // Built mid-run (after a weld): the trees as at t = 0 (their topology as a resumed run rebuilds
+    // it), the obstacles where they are now, so that the next step sees the body's move over that
+    // step and not its way from its t = 0 pose.
+    if (in.time != 0.0) obstacles_.pose_at(in.time, obstacle_x_, obstacle_v_);
+    obstacle_prev_ = obstacle_x_;
   }
 
   std::string name() const override { return "cpu"; }
@@ -53,13 +58,18 @@ class CpuBackend final : public Backend {
     v = st_.v[st_.cur];
   }
 
-  bool download_balls(std::vector<Vec3>& centre, std::vector<float>& radius) override {
+  bool download_balls(std::vector<Vec3>& centre, std::vector<float>& radius,
+                      std::vector<std::vector<Vec3>>* planes) override {
     centre = st_.x_ref;
     radius.resize(st_.x_ref.size());
     StepView s;
     s.bound = st_.bound.data();
     s.bound_radius = st_.bound_radius.data();
+    s.plane_count = st_.plane_count.data();
+    s.plane_near = st_.plane_near.data();
+    s.planes = st_.planes.data();
     for (uint32_t i = 0; i < radius.size(); ++i) radius[i] = allowance_of(s, i);
+    if (planes) planes_by_vertex(s, uint32_t(radius.size()), *planes);
     return true;
   }
 
@@ -74,6 +84,7 @@ class CpuBackend final : public Backend {
     st_.x_ref = x;
     std::fill(st_.bound.begin(), st_.bound.end(), 0u);
     std::fill(st_.bound_radius.begin(), st_.bound_radius.end(), 0.0f);
+    std::fill(st_.plane_count.begin(), st_.plane_count.end(), 0u);
     st_.bound_age[0] = 0;
   }
 

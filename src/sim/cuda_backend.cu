@@ -97,20 +97,30 @@ class CudaBackend final : public Backend {
 
   // The balls of the displacement bound: centres and allowances, computed on the host from the
   // device's arrays (as the CPU backend does from its own).
-  bool download_balls(std::vector<Vec3>& centre, std::vector<float>& radius) override {
+  bool download_balls(std::vector<Vec3>& centre, std::vector<float>& radius,
+                      std::vector<std::vector<Vec3>>* planes) override {
     const size_t n = model_.num_vertices();
     std::vector<uint32_t> bound(n);
     std::vector<float> bound_radius(n);
+    std::vector<uint32_t> plane_count(n), plane_near(n);
+    std::vector<BoundPlanes> plane_dirs(n);
     centre.resize(n);
     radius.resize(n);
     CUDA_CHECK(cudaMemcpyAsync(centre.data(), st_->x_ref.data(), n * sizeof(Vec3), cudaMemcpyDeviceToHost, stream_));
     CUDA_CHECK(cudaMemcpyAsync(bound.data(), st_->bound.data(), n * sizeof(uint32_t), cudaMemcpyDeviceToHost, stream_));
     CUDA_CHECK(cudaMemcpyAsync(bound_radius.data(), st_->bound_radius.data(), n * sizeof(float), cudaMemcpyDeviceToHost, stream_));
+    CUDA_CHECK(cudaMemcpyAsync(plane_count.data(), st_->plane_count.data(), n * sizeof(uint32_t), cudaMemcpyDeviceToHost, stream_));
+    CUDA_CHECK(cudaMemcpyAsync(plane_near.data(), st_->plane_near.data(), n * sizeof(uint32_t), cudaMemcpyDeviceToHost, stream_));
+    CUDA_CHECK(cudaMemcpyAsync(plane_dirs.data(), st_->planes.data(), n * sizeof(BoundPlanes), cudaMemcpyDeviceToHost, stream_));
     CUDA_CHECK(cudaStreamSynchronize(stream_));
     StepView s;
     s.bound = bound.data();
     s.bound_radius = bound_radius.data();
+    s.plane_count = plane_count.data();
+    s.plane_near = plane_near.data();
+    s.planes = plane_dirs.data();
     for (uint32_t i = 0; i < n; ++i) radius[i] = allowance_of(s, i);
+    if (planes) planes_by_vertex(s, uint32_t(n), *planes);
     return true;
   }
 
@@ -272,6 +282,16 @@ class CudaBackend final : public Backend {
 
     obstacle_tree_.allocate(uint32_t(obstacles_.num_collision_triangles()));
     obstacle_tree_.build(obstacle_x_.data(), obstacle_indices_.data(), stream_);
+    // Built mid-run (after a weld): the tree as at t = 0, the obstacles where they are now (see the
+    // CPU backend).
+    if (in_.time != 0.0) {
+      CUDA_CHECK(cudaStreamSynchronize(stream_));
+      obstacles_.pose_at(in_.time, ox, ov);
+      const size_t bytes = ox.size() * sizeof(Vec3);
+      CUDA_CHECK(cudaMemcpy(obstacle_x_.data(), ox.data(), bytes, cudaMemcpyHostToDevice));
+      CUDA_CHECK(cudaMemcpy(obstacle_v_.data(), ov.data(), bytes, cudaMemcpyHostToDevice));
+      CUDA_CHECK(cudaMemcpy(obstacle_prev_.data(), ox.data(), bytes, cudaMemcpyHostToDevice));
+    }
     cloth_.allocate(m.num_collision_triangles());
     cloth_.build(st_->x[st_->cur].data(), cloth_indices_, stream_);
     CUDA_CHECK(cudaStreamSynchronize(stream_));

@@ -110,7 +110,7 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
 // The backend again, over the model as it is now, from the state (x_, v_): a backend that takes
 // edits keeps the velocities; another starts from the model's start positions at rest.
 void Simulator::rebuild_backend() {
-  const BackendInput in{&scene_, model_.get(), obstacles_.get(), {step_dt_, step_iterations_}};
+  const BackendInput in{&scene_, model_.get(), obstacles_.get(), {step_dt_, step_iterations_}, time()};
   const bool cuda = backend_->name() == "cuda";
   backend_.reset();
   backend_ = cuda ? make_cuda_backend(in) : make_cpu_backend(in);
@@ -305,8 +305,9 @@ void Simulator::choose_dt(double t0) {
 
 bool Simulator::can_checkpoint() const { return backend_->can_checkpoint(); }
 
-bool Simulator::bound_balls(std::vector<Vec3>& centre, std::vector<float>& radius) {
-  return backend_->download_balls(centre, radius);
+bool Simulator::bound_balls(std::vector<Vec3>& centre, std::vector<float>& radius,
+                            std::vector<std::vector<Vec3>>* planes) {
+  return backend_->download_balls(centre, radius, planes);
 }
 
 void Simulator::save_state(ByteWriter& out) {

@@ -61,6 +61,14 @@ struct ContactPair {
   Vec3 n;
 };
 
+// The displacement bound's planes (sim/bound.h): where a pair of features is nearer than a ball can
+// serve (a share of the thickness), each of its vertices keeps to its own side of the plane between
+// them instead. Up to kBoundPlanes per vertex, each the unit direction it may not move against.
+inline constexpr uint32_t kBoundPlanes = 4;
+struct BoundPlanes {
+  Vec3 n[kBoundPlanes] = {};
+};
+
 // What a batch of steps did (run_steps in sim/step.h, from the counters).
 struct StepResult {
   uint64_t hits = 0;        // collision-buffer entries in the last step
@@ -79,6 +87,8 @@ inline void add_step(StepResult& r, const StepCounters& c) {
   t.refreshes += c.refresh_made == kRefreshFull || c.bound_passes > 0 ? 1u : 0u;  // a pass refreshes in full
   t.partial_refreshes += c.refresh_made == kRefreshPartial && c.bound_passes == 0 ? 1u : 0u;
   t.max_residual = t.max_residual > double(float_from_bits(c.residual)) ? t.max_residual : double(float_from_bits(c.residual));
+  const double move = double(float_from_bits(c.obstacle_move));
+  t.max_obstacle_move = t.max_obstacle_move > move ? t.max_obstacle_move : move;
 }
 
 // The step's state arrays besides x and v, declared once: StepView's pointers (below) and
@@ -97,6 +107,9 @@ inline void add_step(StepResult& r, const StepCounters& c) {
   X(uint32_t, bound, kPerVertex, 0u, true)             /* allowance 0: the first step that moves refreshes */  \
   X(float, bound_radius, kPerVertex, 0.0f, true)                                                              \
   X(Vec3, x_ref, kPerVertex, m.initial_positions, true)                                                       \
+  X(uint32_t, plane_count, kPerVertex, 0u, true)       /* planes of the vertex (may exceed kBoundPlanes) */    \
+  X(uint32_t, plane_near, kPerVertex, 0u, true)        /* float bits: the nearest pair that gave it a plane */ \
+  X(BoundPlanes, planes, kPerVertex, BoundPlanes(), true)                                                     \
   X(uint32_t, bound_age, kOne, 0u, true)                                                                      \
   X(uint32_t, flags, kPerVertex, 0u, true)             /* kFlag* of this step */                               \
   /* The bound's further passes: the step's goal and where the last pass left each vertex. */                 \
@@ -142,6 +155,10 @@ struct StepView {
   // Moving obstacles: whether any does (host), and their vertices at t (obstacle_reach).
   bool bodies_move = false;
   const Vec3* obstacle_prev = nullptr;
+  // The bound's planes (sim/bound.h), where something drives the cloth into itself: a body moves or
+  // seams are sewn. Static scenes keep the paper's step and its bound (the default scene's frames
+  // byte for byte), as for the contact solve.
+  bool bound_planes = false;
   uint32_t num_obstacle_vertices = 0;
 };
 
