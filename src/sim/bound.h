@@ -38,9 +38,9 @@ inline constexpr float kBoundNear = 0.25f;
 // side and the other on its other; each vertex may move anywhere that does not take it towards the
 // other side (measured from its ball's centre), so the two can never meet, and they may part at
 // once (where a body moves or seams are sewn: StepView::bound_planes). The pair's distance then
-// does not bound their balls. A vertex with more than kBoundPlanes
-// planes keeps none of them: the nearest pair that gave one bounds its ball (plane_near), as
-// without planes, whatever the order the pairs were found in.
+// does not bound their balls. A vertex with more than kBoundPlanes planes keeps none of them: the
+// nearest pair that gave one bounds its ball (plane_near), as without planes, whatever the order
+// the pairs were found in.
 inline constexpr float kBoundPlaneShare = 0.1f;
 inline constexpr double kBoundPlaneMin = 2e-6;
 // How far behind one of its planes (metres) a vertex may end up after the rounding of its float
@@ -353,8 +353,6 @@ RC_HD void stage_bound(const StepView& s, uint32_t t, uint32_t pass) {
   });
 }
 
-// Clamp: the vertex stays inside its ball. Along its own move from x it goes as far as the ball
-// allows; its velocity shrinks in proportion. Returns 1 when it shortened the move.
 // Vertex i's planes: a proposed position behind one is moved onto it (the velocity against it
 // removed), plane by plane; one that is then still behind one goes back to x, which every plane
 // allows. Returns 1 when it changed the move.
@@ -387,6 +385,9 @@ RC_HD uint32_t keep_to_planes(const StepView& s, uint32_t i) {
   return 1u;
 }
 
+// Clamp: the vertex stays on its planes' allowed sides and inside its ball. Along its own move from
+// x (onto its planes) it goes as far as the ball allows; its velocity shrinks in proportion.
+// Returns 1 when it changed the move.
 RC_HD uint32_t stage_clamp(const StepView& s, uint32_t i) {
   if (!is_free(s, i)) return 0u;
   // The planes first, then the ball along the move from x: x and the position the planes left are
