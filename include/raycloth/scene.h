@@ -64,6 +64,14 @@ struct MaterialDef {
   float bend = 4.0f;         // N/m
   float damping = 1.0f;      // 1/s: viscous force -damping * m * v
   float spring_damping = 0.0f;  // N s/m along each spring (0 = the paper's model)
+  // How the cloth resists bending: bend springs that skip a vertex (the paper's, `bend` N/m each),
+  // or hinges across every interior edge with the measured fabric's bending rigidity (sim/model.h,
+  // Hinge). Auto: hinges for a measured fabric whose `bend` is not given, bend springs otherwise.
+  enum class Bending : uint8_t { Auto, Springs, Hinges };
+  Bending bending = Bending::Auto;
+  bool bends_by_hinges() const {
+    return bending == Bending::Hinges || (bending == Bending::Auto && !measured.empty() && !bend_set);
+  }
 };
 
 struct TransformDef {

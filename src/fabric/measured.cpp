@@ -315,7 +315,7 @@ bool grid_bend(double bending, double density, double along, double across, doub
 
 }  // namespace
 
-MeasuredGrid measured_grid(const MeasuredData& d, double density, double hx, double hy, double warp) {
+MeasuredGrid measured_grid(const MeasuredData& d, double density, double hx, double hy, double warp, bool bend_springs) {
   MeasuredGrid g;
   const double alpha = std::atan2(hy, hx);
   const std::vector<double> families{-warp, 0.5 * kPi - warp, alpha - warp, -alpha - warp};
@@ -327,6 +327,7 @@ MeasuredGrid measured_grid(const MeasuredData& d, double density, double hx, dou
   g.stretch_v = fit.small[1] * area / (hy * hy), g.stiff_v = (fit.stiff[1] - fit.small[1]) * area / (hy * hy);
   g.diag_a = fit.small[2] * area / diag2, g.stiff_a = (fit.stiff[2] - fit.small[2]) * area / diag2;
   g.diag_b = fit.small[3] * area / diag2, g.stiff_b = (fit.stiff[3] - fit.small[3]) * area / diag2;
+  if (!bend_springs) return g;
   const double cu = strain_modulus(stretch_coefficients(d, 0.0, -warp), -warp) * area / (hx * hx);
   const double cv = strain_modulus(stretch_coefficients(d, 0.0, 0.5 * kPi - warp), 0.5 * kPi - warp) * area / (hy * hy);
   g.bend_fits = grid_bend(measured_bending(d, -warp), density, hx, hy, cu, g.stiff_u, g.stretch_u, g.bend_u);
@@ -334,29 +335,21 @@ MeasuredGrid measured_grid(const MeasuredData& d, double density, double hx, dou
   return g;
 }
 
-TriangleShare measured_triangle(const MeasuredData& d, const std::array<double, 3>& edge_angle,
-                                const std::array<double, 3>& length, double area) {
-  TriangleShare t;
-  const std::vector<double> dirs(edge_angle.begin(), edge_angle.end());
-  const FamilyFit fit = fit_families(d, dirs, dirs);
-  t.clamped = fit.clamped;
-  t.solved = fit.solved;
-  for (size_t k = 0; k < 3; ++k) {
-    const double per = area / (length[k] * length[k]);
-    if (fit.solved) {
-      t.small[k] = fit.small[k] * per;
-      t.stiff[k] = (fit.stiff[k] - fit.small[k]) * per;
-    } else {
-      // A sliver whose edges leave the fit singular: each edge on its own, as on an equilateral
-      // lattice (whose springs give 9/8 of their E = k l^2 / A along each edge).
-      const double c0 = strain_modulus(stretch_coefficients(d, 0.0, edge_angle[k]), edge_angle[k]);
-      const double e = kMeasuredStrain, cm = measured_tension(d, e, edge_angle[k]) / ((1 + e) * e);
-      // Softening to no less than half, as fit_families keeps it (a tangent k + 2 dk >= 0).
-      t.small[k] = 8.0 / 9.0 * c0 * per;
-      t.stiff[k] = 8.0 / 9.0 * std::max(cm - c0, -0.5 * c0) * per;
-    }
-  }
-  return t;
+MembraneLaw membrane_law(const MeasuredData& d) {
+  const double e = kMeasuredStrain, reach = e + 0.5 * e * e;
+  const std::array<double, 4> k0 = stretch_coefficients(d, 0.0, 0.0);
+  const double a0 = k0[0], a2 = k0[2], k1 = k0[1], a3 = k0[3];
+  const double b0 = std::max(stretch_coefficients(d, e, 0.0)[0] - a0, -0.5 * a0);
+  const double b2 = std::max(stretch_coefficients(d, e, 0.5 * kPi)[2] - a2, -0.5 * a2);
+  // At 45 degrees the warp and the weft are strained by half the pull's Green strain, the shear by
+  // half too (its reach): C = (k0(reach / 2) + k2(reach / 2) + 2 k1 + 2 (a3 + b3)) / 4.
+  MembraneLaw law;
+  law.measured_45 = measured_tension(d, e, 0.25 * kPi);
+  const double c45 = law.measured_45 / ((1 + e) * reach);
+  const double b3 = std::max((4 * c45 - (a0 + 0.5 * b0) - (a2 + 0.5 * b2) - 2 * k1) / 2 - a3, -0.5 * a3);
+  law.fitted_45 = (1 + e) * reach * ((a0 + 0.5 * b0) + (a2 + 0.5 * b2) + 2 * k1 + 2 * (a3 + b3)) / 4;
+  law.p = {float(a0), float(b0), float(a2), float(b2), float(k1), float(a3), float(b3), float(reach)};
+  return law;
 }
 
 double measured_hinge_bend(const MeasuredData& d, double density, double area_sum, double length, double angle) {
@@ -376,31 +369,6 @@ double angle_from_warp(Vec3 v, Vec3 normal, Vec3 warp) {
   w = w / length(w);
   const Vec3 b = cross(n, w);
   return std::atan2(double(dot(v, b)), double(dot(v, w)));
-}
-
-std::map<std::pair<uint32_t, uint32_t>, std::array<double, 2>> measured_mesh_stretch(
-    const MeasuredData& d, const std::vector<Vec3>& rest, const std::vector<uint32_t>& tris, Vec3 warp, int* clamped) {
-  std::map<std::pair<uint32_t, uint32_t>, std::array<double, 2>> out;
-  for (size_t t = 0; t + 2 < tris.size(); t += 3) {
-    const Vec3 p[3] = {rest[tris[t]], rest[tris[t + 1]], rest[tris[t + 2]]};
-    const Vec3 normal = cross(p[1] - p[0], p[2] - p[0]);
-    const double area = 0.5 * double(length(normal));
-    if (!(area > 0)) continue;
-    std::array<double, 3> angle{}, len{};
-    for (int k = 0; k < 3; ++k) {
-      const Vec3 e = p[(k + 1) % 3] - p[k];
-      angle[size_t(k)] = angle_from_warp(e, normal, warp);
-      len[size_t(k)] = double(length(e));
-    }
-    const TriangleShare share = measured_triangle(d, angle, len, area);
-    if (clamped) *clamped += share.clamped;
-    for (int k = 0; k < 3; ++k) {
-      const uint32_t a = tris[t + size_t(k)], b = tris[t + size_t(k + 1) % 3];
-      auto& e = out[{std::min(a, b), std::max(a, b)}];
-      e[0] += share.small[size_t(k)], e[1] += share.stiff[size_t(k)];
-    }
-  }
-  return out;
 }
 
 }  // namespace raycloth::fabric

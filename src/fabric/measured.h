@@ -101,23 +101,23 @@ struct MeasuredGrid {
   // k + 2 stiff w >= 0 for w in [0, 1] (fabric/stiffening.h), or the row buckles in its plane.
   bool bend_fits = true;
 };
-MeasuredGrid measured_grid(const MeasuredData& d, double density, double hx, double hy, double warp);
+// bend_springs false: the grid bends by hinges (sim/hinges.h), its stretch springs keep their whole
+// stiffness and bend_u = bend_v = 0.
+MeasuredGrid measured_grid(const MeasuredData& d, double density, double hx, double hy, double warp,
+                           bool bend_springs = true);
 
-// A triangle's share of its three edges' stretch springs (edge k from corner k to corner k + 1):
-// the three fitted to the measured pull along the three edges' own directions. `edge_angle` are the
-// edges' directions from the warp (radians), `length` their rest lengths, `area` the triangle's.
-struct TriangleShare {
-  std::array<double, 3> small{}, stiff{};  // N/m: k and dk for each edge from this triangle
-  int clamped = 0;
-  bool solved = false;
+// A triangle membrane's law (sim/membrane.h): a0, b0 along the warp, a2, b2 along the weft, the
+// coupling k1, a3, b3 of the shear (stiffness a at no strain growing to a + b at `reach`, the Green
+// strain of a pull to kMeasuredStrain: half of it for the shear) and reach. At no strain a = k of
+// row 0 (the measured model in every direction); at kMeasuredStrain the measured tension along 0, 90
+// and 45 degrees; b no less than -a / 2 (a stress that grows as it stretches). `fitted_45` is the
+// 45-degree tension the law gives (N/m: the measured one unless the shear's floor bit).
+struct MembraneLaw {
+  std::array<float, 8> p{};
+  double fitted_45 = 0, measured_45 = 0;
 };
-TriangleShare measured_triangle(const MeasuredData& d, const std::array<double, 3>& edge_angle,
-                                const std::array<double, 3>& length, double area);
-// A triangle mesh's stretch springs (rest shape `rest`, 3 corners a triangle in `tris`), warp along
-// `warp` laid into each triangle's plane: per edge (smaller corner first), k and dk summed over its
-// triangles (measured_triangle). `clamped` (optional) counts the springs fitted to no stiffness.
-std::map<std::pair<uint32_t, uint32_t>, std::array<double, 2>> measured_mesh_stretch(
-    const MeasuredData& d, const std::vector<Vec3>& rest, const std::vector<uint32_t>& tris, Vec3 warp, int* clamped = nullptr);
+MembraneLaw membrane_law(const MeasuredData& d);
+
 // The angle (radians) of `v` from `warp` laid into the plane of normal `normal`.
 double angle_from_warp(Vec3 v, Vec3 normal, Vec3 warp);
 // A triangle mesh's bend spring (kes.cpp's hinge_bend) for the rigidity along the spring's

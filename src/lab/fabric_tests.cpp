@@ -16,6 +16,7 @@
 #include "fabric/stiffening.h"
 #include "raycloth/error.h"
 #include "raycloth/simulator.h"
+#include "sim/membrane.h"
 #include "sim/model.h"
 
 namespace raycloth::lab {
@@ -164,7 +165,8 @@ CantileverResult cantilever_test(const MaterialDef& material, const CantileverOp
       const double l = 2 * bending_length(c);
       while (o.segments > 6 && bend_stretch_ratio(c, l / o.segments, o.width) > 0.2) --o.segments;
     }
-    if (const MeasuredFabric* f = find_measured(material.measured); f && !material.bend_set && !material.stretch_set) {
+    if (const MeasuredFabric* f = find_measured(material.measured);
+        f && !material.bend_set && !material.stretch_set && !material.bends_by_hinges()) {
       // The bend springs' pull against the row's whole stretch stiffness, as for KES-F fabrics.
       const double warp = o.warp * kPi / 180.0;
       Continuum c;
@@ -501,7 +503,7 @@ std::vector<DirectionalPoint> directional_tensile(const MaterialDef& material, d
       // Cells no smaller than the fabric's bending lets the stretch springs carry (MeasuredGrid::bend_fits).
       const double warp = angle * kPi / 180.0, density = material.density_set ? material.density : f->data.density;
       auto cell = [&] { return o.size / double(s.panels[0].resolution_u - 1); };
-      while (cell() < 0.25 * o.size && !measured_grid(f->data, density, cell(), cell(), warp).bend_fits)
+      while (cell() < 0.25 * o.size && !measured_grid(f->data, density, cell(), cell(), warp, !material.bends_by_hinges()).bend_fits)
         s.panels[0].resolution_u = s.panels[0].resolution_v = s.panels[0].resolution_u - 1;
       o.edge = cell();
     }
@@ -525,6 +527,17 @@ std::vector<DirectionalPoint> directional_tensile(const MaterialDef& material, d
       const Vec3 d = x[b] - x[a];
       const float len = length(d), stretch = len - sp.rest;
       if (len > 0) force += double(stiffened(sp.k, sp.k_stiff, stretch, sp.rest) * stretch) * double(d.x) / double(len);
+    }
+    // Membrane triangles across the line: their pull on their corners left of it (a triangle's
+    // forces sum to zero, so those wholly on one side add nothing).
+    const ModelView view = m.view();
+    for (uint32_t t = 0; t < m.num_membranes(); ++t) {
+      const uint32_t* v = &m.membrane_vertex[3 * t];
+      const int left = int(x[v[0]].x < cut) + int(x[v[1]].x < cut) + int(x[v[2]].x < cut);
+      if (left == 0 || left == 3) continue;
+      const MembraneState st = membrane_state(view, x.data(), t);
+      for (uint32_t c = 0; c < 3; ++c)
+        if (x[v[c]].x < cut) force += double(membrane_corner_force(st, c).x);
     }
     DirectionalPoint pt;
     pt.strain = strain;

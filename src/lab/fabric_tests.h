@@ -121,8 +121,8 @@ struct DirectionalOptions {
   // The grid's cell (or the triangles' target edge), metres; 0: 5 mm (triangles: longer, by 1.25
   // each time, while the bend springs would hold more than 0.3 of the in-plane stiffness).
   double edge = 0;
-  // A grid's four spring directions can follow any warp and weft; a triangle mesh's three cannot
-  // (docs/materials.md): the triangles are there to show by how much.
+  // A grid's four spring directions follow any warp and weft; a triangle mesh of a measured fabric
+  // carries the measured model on each triangle (sim/membrane.h; docs/materials.md).
   bool grid = true;
   std::vector<double> strains{1.0 / 12.0, 1.0 / 6.0};
   Stepping stepping{Integrator::Explicit, 0, 30, 0.2, 20.0};

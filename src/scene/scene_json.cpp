@@ -131,7 +131,8 @@ CameraDef SceneReader::camera(const json& j, const std::string& ptr) const {
 
 MaterialDef SceneReader::material(const json& j, const std::string& ptr) const {
   MaterialDef m;
-  object(j, ptr, {"name", "fabric", "kes", "density", "stretch", "shear", "bend", "damping", "spring_damping"});
+  object(j, ptr, {"name", "fabric", "kes", "density", "stretch", "shear", "bend", "damping", "spring_damping",
+                  "bending"});
   required(j, ptr, "name", [&](const json& v, const std::string& p) { m.name = string(v, p); });
   // A fabric: a named preset, measurements ("kes"), or a preset with some measurements replaced.
   optional(j, ptr, "fabric", [&](const json& v, const std::string& p) {
@@ -166,6 +167,12 @@ MaterialDef SceneReader::material(const json& j, const std::string& ptr) const {
   optional(j, ptr, "damping", [&](const json& v, const std::string& p) { m.damping = number_f(v, p); });
   optional(j, ptr, "spring_damping",
            [&](const json& v, const std::string& p) { m.spring_damping = number_f(v, p); });
+  optional(j, ptr, "bending", [&](const json& v, const std::string& p) {
+    const std::string b = string(v, p);
+    if (b == "springs") m.bending = MaterialDef::Bending::Springs;
+    else if (b == "hinges") m.bending = MaterialDef::Bending::Hinges;
+    else fail(p, "unknown bending '" + b + "' (expected \"springs\" or \"hinges\")");
+  });
   return m;
 }
 

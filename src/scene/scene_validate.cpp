@@ -7,6 +7,7 @@
 #include <map>
 #include <string>
 
+#include "fabric/measured.h"
 #include "raycloth/error.h"
 #include "raycloth/scene.h"
 #include "scene/mesh.h"
@@ -91,6 +92,11 @@ void validate_materials(const Checks& c) {
     c.non_negative(m.bend, p + "/bend");
     c.non_negative(m.damping, p + "/damping");
     c.non_negative(m.spring_damping, p + "/spring_damping");
+    if (m.bending == MaterialDef::Bending::Hinges && m.measured.empty())
+      c.fail(p + "/bending", "hinges take their bending rigidity from a measured fabric (\"fabric\": one of " +
+                                 fabric::measured_names() + ")");
+    if (m.bending == MaterialDef::Bending::Hinges && m.bend_set)
+      c.fail(p + "/bend", "is the stiffness of bend springs (N/m); with \"bending\": \"hinges\" the measured fabric gives the bending");
     if (m.fabric) {
       // Measurements that no fabric can have: zero, negative, not a number.
       const std::pair<const char*, double> kes[] = {{"W", m.fabric->W}, {"B", m.fabric->B}, {"G", m.fabric->G}, {"EMT", m.fabric->EMT}};

@@ -61,6 +61,9 @@ void weld_seams(ClothModel& m) {
     if (sp.a != sp.b) springs.push_back(sp);
   }
   m.springs = std::move(springs);
+  for (Hinge& h : m.hinges)
+    for (uint32_t& v : h.v) v = m.alias[v];
+  for (uint32_t& v : m.membrane_vertex) v = m.alias[v];
   m.collision_triangles.resize(m.triangles.size());
   for (size_t k = 0; k < m.triangles.size(); ++k) m.collision_triangles[k] = m.alias[m.triangles[k]];
   m.tri_alias = m.collision_triangles;
@@ -137,6 +140,28 @@ double ClothModel::stiffness_sum(uint32_t i) const {
   if (!adj_k_stiff.empty())  // a stiffening spring at its stiffest, or twice that tangent at 1/6
     for (uint32_t e = adj_offset[i]; e < adj_offset[i + 1]; ++e) k += std::max(2.0 * double(adj_k_stiff[e]), 0.0);
   if (!attach_slot.empty() && attach_slot[i] != kNoAttachment) k += double(attach_k[attach_slot[i]]);
+  // A membrane triangle's (sim/membrane.h): A |g_c| sum_j |g_j| times its law's stiffest tangent,
+  // and half again for the stretch it may reach (the stress grows as F S).
+  if (!membrane_offset.empty())
+    for (uint32_t e = membrane_offset[i]; e < membrane_offset[i + 1]; ++e) {
+      const uint32_t t = membrane_entry[e] / 3, c = membrane_entry[e] % 3;
+      const float* d = &membrane_shape[4 * t];
+      const double gs[3] = {-d[0] - d[2], d[0], d[2]}, gt[3] = {-d[1] - d[3], d[1], d[3]};
+      double row = 0;
+      for (int j = 0; j < 3; ++j) row += std::hypot(gs[j], gt[j]);
+      const float* law = &membrane_law[kMembraneLaw * membrane_fabric[t]];
+      const double kmax = std::max({double(law[0] + 2 * std::max(law[1], 0.0f)), double(law[2] + 2 * std::max(law[3], 0.0f)),
+                                    double(law[4]), double(law[5] + 2 * std::max(law[6], 0.0f))});
+      k += 1.5 * double(membrane_area[t]) * std::hypot(gs[c], gt[c]) * row * kmax;
+    }
+  // A hinge's row of the stiffness matrix (w_r w_j, Gershgorin): |w_r| sum_j |w_j|.
+  if (!hinge_offset.empty())
+    for (uint32_t e = hinge_offset[i]; e < hinge_offset[i + 1]; ++e) {
+      const uint32_t h = hinge_entry[e] / 4, r = hinge_entry[e] % 4;
+      double row = 0;
+      for (uint32_t j = 0; j < 4; ++j) row += std::fabs(double(hinge_weight[4 * h + j]));
+      k += std::fabs(double(hinge_weight[4 * h + r])) * row;
+    }
   return k;
 }
 
@@ -180,6 +205,34 @@ void build_adjacency(ClothModel& model) {
       if (stiffens) model.adj_k_stiff[slot] = sp.k_stiff;
       if (model.sew_time > 0) model.adj_rest_start[slot] = sp.rest_start;
     }
+  }
+  // Hinges: each corner's entry under its vertex (corners welded onto one vertex each keep theirs).
+  model.hinge_offset.clear(), model.hinge_entry.clear(), model.hinge_vertex.clear(), model.hinge_weight.clear();
+  if (!model.hinges.empty()) {
+    std::vector<uint32_t> count(n, 0);
+    for (const Hinge& h : model.hinges)
+      for (uint32_t v : h.v) ++count[v];
+    model.hinge_offset.assign(n + 1, 0);
+    for (uint32_t i = 0; i < n; ++i) model.hinge_offset[i + 1] = model.hinge_offset[i] + count[i];
+    model.hinge_entry.resize(model.hinge_offset[n]);
+    std::vector<uint32_t> at(model.hinge_offset.begin(), model.hinge_offset.end() - 1);
+    for (uint32_t h = 0; h < model.hinges.size(); ++h)
+      for (uint32_t r = 0; r < 4; ++r) {
+        model.hinge_entry[at[model.hinges[h].v[r]]++] = 4 * h + r;
+        model.hinge_vertex.push_back(model.hinges[h].v[r]);
+        model.hinge_weight.push_back(model.hinges[h].w[r]);
+      }
+  }
+  // Membranes: each corner's entry under its vertex.
+  model.membrane_offset.clear(), model.membrane_entry.clear();
+  if (model.num_membranes() > 0) {
+    std::vector<uint32_t> count(n, 0);
+    for (uint32_t v : model.membrane_vertex) ++count[v];
+    model.membrane_offset.assign(n + 1, 0);
+    for (uint32_t i = 0; i < n; ++i) model.membrane_offset[i + 1] = model.membrane_offset[i] + count[i];
+    model.membrane_entry.resize(model.membrane_offset[n]);
+    std::vector<uint32_t> at(model.membrane_offset.begin(), model.membrane_offset.end() - 1);
+    for (uint32_t k = 0; k < model.membrane_vertex.size(); ++k) model.membrane_entry[at[model.membrane_vertex[k]]++] = k;
   }
   color_vertices(model);
 }

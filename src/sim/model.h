@@ -24,6 +24,25 @@ struct Spring {
   float k_stiff = 0;     // a measured fabric's stretch spring: stiffness added at strain 1/6 (fabric/stiffening.h)
 };
 
+// A bending element across an interior edge (v[0], v[1]) of a panel's triangles, v[2] and v[3] the
+// corners opposite it: the isometric quadratic bending of Bergou, Wardetzky, Harmon, Zorin and
+// Grinspun ("A quadratic bending model for inextensible surfaces", SGP 2006). Its energy is
+//   E = 1/2 |sum_j w_j x_j|^2,   w_j = sqrt(B / (A0 + A1)) K_j,
+// K the cotangent weights of the rest triangles (K . x = 0 for every flat placement, stretched or
+// not: the element pushes nowhere along the sheet), A0 + A1 their rest areas and B the sheet's
+// bending rigidity (N m) across the edge. Summed over a mesh, sum |K x|^2 / (A0 + A1) is the
+// integral of the squared curvature of a rolled sheet (checked on grids and meshes in
+// tests/test_hinge.cpp), so the moment is B kappa at any curvature: a bending force of its own,
+// independent of the stretch springs (bend springs pull along the row).
+struct Hinge {
+  std::array<uint32_t, 4> v{};
+  std::array<float, 4> w{};
+};
+
+// The floats of one measured fabric's membrane law (sim/membrane.h, fabric::membrane_law): a0 b0
+// (warp), a2 b2 (weft), k1 (coupling), a3 b3 (shear), G1 (the Green strain of a pull to 1/6).
+inline constexpr uint32_t kMembraneLaw = 8;
+
 struct Piece {
   std::string name;
   uint32_t first_vertex = 0, vertex_count = 0;
@@ -49,6 +68,23 @@ struct Piece {
   X(uint32_t, triangles, collision_triangles) /* 3 per collision triangle (corners welded across seams) */   \
   X(uint32_t, tri_alias, tri_alias)          /* alias of each collision-triangle corner */                   \
   X(uint32_t, edges, edges)                  /* 2 per edge of the cloth surface */                           \
+  /* Hinge bending (null unless a material bends by hinges): CSR per vertex of its hinge entries */          \
+  /* (4 h + the vertex's corner in hinge h); per hinge its 4 corners and their weights (Hinge). */            \
+  X(uint32_t, hinge_offset, hinge_offset)                                                                    \
+  X(uint32_t, hinge_entry, hinge_entry)                                                                      \
+  X(uint32_t, hinge_vertex, hinge_vertex)                                                                    \
+  X(float, hinge_weight, hinge_weight)                                                                       \
+  /* Membranes (null unless a measured fabric's triangle mesh has them: sim/membrane.h): CSR per */          \
+  /* vertex of its entries (3 t + its corner in membrane triangle t); per triangle its 3 corners, */         \
+  /* Dm^-1 in the warp and weft frame (4, row-major), rest area and fabric (into membrane_law, */           \
+  /* kMembraneLaw floats per fabric). */                                                                     \
+  X(uint32_t, membrane_offset, membrane_offset)                                                              \
+  X(uint32_t, membrane_entry, membrane_entry)                                                                \
+  X(uint32_t, membrane_vertex, membrane_vertex)                                                              \
+  X(float, membrane_shape, membrane_shape)                                                                   \
+  X(float, membrane_area, membrane_area)                                                                     \
+  X(uint32_t, membrane_fabric, membrane_fabric)                                                              \
+  X(float, membrane_law, membrane_law)                                                                     \
   /* Per triangle: bit k set when it is the lowest-numbered triangle holding its edge k (corners k, */       \
   /* k+1); bit 3 + k when it is the lowest-numbered one holding corner k. */                                 \
   X(uint8_t, tri_edge_owner, tri_edge_owner)                                                                 \
@@ -92,6 +128,16 @@ struct ClothModel {
   std::vector<float> adj_rest, adj_k, adj_kd, adj_rest_start;
   std::vector<float> adj_k_stiff;  // empty unless some spring stiffens
   std::vector<uint32_t> alias;
+  // Hinge bending (Hinge), and its per-vertex CSR and flat arrays for the step (build_adjacency).
+  std::vector<Hinge> hinges;
+  std::vector<uint32_t> hinge_offset, hinge_entry, hinge_vertex;
+  std::vector<float> hinge_weight;
+  // Membrane triangles (sim/membrane.h): 3 corners, Dm^-1 (4), rest area and fabric each; the fabrics'
+  // laws; the per-vertex CSR (build_adjacency).
+  std::vector<uint32_t> membrane_vertex, membrane_fabric;
+  std::vector<float> membrane_shape, membrane_area, membrane_law;
+  std::vector<uint32_t> membrane_offset, membrane_entry;
+  uint32_t num_membranes() const { return uint32_t(membrane_area.size()); }
   // Seams sewn from apart: 2 vertices per stitch (each also a Seam spring of rest length 0), and the
   // scene seam each belongs to. Welded seams have none (their pairs share an alias).
   std::vector<uint32_t> stitches, stitch_seam;

@@ -1,7 +1,9 @@
 // One panel's vertices, masses, triangles and springs: the paper's grid (Fig. 1) for a rectangle,
 // a stretch spring per edge and a bend spring per hinge for a triangle mesh; a fabric's measurements
-// (src/fabric/kes.h) give the density and each spring's stiffness from the mesh around it; a measured
-// fabric's (src/fabric/measured.h) warp and weft apart, with stretch springs that stiffen.
+// (src/fabric/kes.h) give the density and each spring's stiffness from the mesh around it. A measured
+// fabric (src/fabric/measured.h) carries warp and weft apart: on a grid with stretch springs that
+// stiffen, on a triangle mesh with a membrane on each triangle (sim/membrane.h), and bends by hinges
+// (sim/hinges.h) unless its material asks for bend springs.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -11,9 +13,45 @@
 #include "fabric/kes.h"
 #include "fabric/measured.h"
 #include "raycloth/error.h"
+#include "sim/hinges.h"
 #include "sim/model_build.h"
 
 namespace raycloth {
+
+namespace {
+
+// Membrane triangles (sim/membrane.h) for a panel's rest triangles (corners numbered from `base`),
+// the warp laid into each triangle's plane; the fabric's law (fabric::membrane_law) added to the model once.
+void add_membranes(ClothModel& m, const fabric::MeasuredData& d, const std::vector<Vec3>& rest, const std::vector<uint32_t>& tris,
+                   uint32_t base, Vec3 warp) {
+  const std::array<float, kMembraneLaw> law = fabric::membrane_law(d).p;
+  uint32_t fabric = uint32_t(m.membrane_law.size() / kMembraneLaw);
+  for (uint32_t f = 0; f * kMembraneLaw < m.membrane_law.size(); ++f)
+    if (std::equal(law.begin(), law.end(), m.membrane_law.begin() + f * kMembraneLaw)) fabric = f;
+  if (fabric * kMembraneLaw == m.membrane_law.size()) m.membrane_law.insert(m.membrane_law.end(), law.begin(), law.end());
+  for (size_t t = 0; t + 2 < tris.size(); t += 3) {
+    const DVec3 p0 = dvec(rest[tris[t]]), e1 = dvec(rest[tris[t + 1]]) - p0, e2 = dvec(rest[tris[t + 2]]) - p0;
+    DVec3 n{e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z, e1.x * e2.y - e1.y * e2.x};
+    const double twice_area = std::sqrt(ddot(n, n));
+    if (!(twice_area > 0)) continue;
+    n = n * (1.0 / twice_area);
+    // The warp laid into the plane (as fabric::angle_from_warp lays it), and the weft beside it.
+    const double angle1 = fabric::angle_from_warp(make_vec3(float(e1.x), float(e1.y), float(e1.z)),
+                                                  make_vec3(float(n.x), float(n.y), float(n.z)), warp);
+    const double angle2 = fabric::angle_from_warp(make_vec3(float(e2.x), float(e2.y), float(e2.z)),
+                                                  make_vec3(float(n.x), float(n.y), float(n.z)), warp);
+    const double l1 = std::sqrt(ddot(e1, e1)), l2 = std::sqrt(ddot(e2, e2));
+    const double s1 = l1 * std::cos(angle1), t1 = l1 * std::sin(angle1), s2 = l2 * std::cos(angle2), t2 = l2 * std::sin(angle2);
+    const double det = s1 * t2 - s2 * t1;
+    if (!(std::fabs(det) > 0)) continue;
+    for (int k = 0; k < 3; ++k) m.membrane_vertex.push_back(base + tris[t + size_t(k)]);
+    m.membrane_shape.insert(m.membrane_shape.end(), {float(t2 / det), float(-s2 / det), float(-t1 / det), float(s1 / det)});
+    m.membrane_area.push_back(float(0.5 * twice_area));
+    m.membrane_fabric.push_back(fabric);
+  }
+}
+
+}  // namespace
 
 void add_panel(ClothModel& m, const SceneDef& s, size_t pi, const PanelMesh& pm) {
   const PanelDef& pd = s.panels[pi];
@@ -42,6 +80,15 @@ void add_panel(ClothModel& m, const SceneDef& s, size_t pi, const PanelMesh& pm)
   const float density = data && !mat.density_set ? float(data->data.density)
                         : measured && !mat.density_set ? float(measured->density) : mat.density;
   const double warp = double(pd.warp) * M_PI / 180.0;
+  // Hinges instead of bend springs (MaterialDef::bends_by_hinges): a measured fabric's rigidity
+  // across each interior edge, the curvature's direction taken from the warp laid into the plane.
+  const bool hinges = data && mat.bends_by_hinges();
+  auto add_hinges = [&](Vec3 warp_dir, const std::vector<uint32_t>& tris, double share) {
+    const std::vector<Hinge> h = build_hinges(pm.rest, tris, base, [&](Vec3 across, Vec3 normal) {
+      return share * fabric::measured_bending(data->data, fabric::angle_from_warp(across, normal, warp_dir));
+    });
+    m.hinges.insert(m.hinges.end(), h.begin(), h.end());
+  };
   if (pm.grid) {
     // The paper's grid (Fig. 1): equal masses, stretch, shear and bend springs.
     const uint32_t nu = pm.nu, nv = pm.nv;
@@ -63,7 +110,7 @@ void add_panel(ClothModel& m, const SceneDef& s, size_t pi, const PanelMesh& pm)
     float stiff_u = 0, stiff_v = 0, stiff_a = 0, stiff_b = 0;
     if (data) {
       const double hx = length(pm.rest[at(1, 0)] - pm.rest[at(0, 0)]), hy = length(pm.rest[at(0, 1)] - pm.rest[at(0, 0)]);
-      const fabric::MeasuredGrid g = fabric::measured_grid(data->data, density, hx, hy, warp);
+      const fabric::MeasuredGrid g = fabric::measured_grid(data->data, density, hx, hy, warp, !hinges);
       if (!mat.stretch_set) stretch_u = float(g.stretch_u), stretch_v = float(g.stretch_v), stiff_u = float(g.stiff_u), stiff_v = float(g.stiff_v);
       if (!mat.shear_set) shear = float(g.diag_a), shear_b = float(g.diag_b), stiff_a = float(g.stiff_a), stiff_b = float(g.stiff_b);
       if (!mat.bend_set) bend_u = float(g.bend_u), bend_v = float(g.bend_v);
@@ -88,9 +135,26 @@ void add_panel(ClothModel& m, const SceneDef& s, size_t pi, const PanelMesh& pm)
           spring(at(u, v), at(u + 1, v + 1), shear, SpringType::Shear, stiff_a);
           spring(at(u + 1, v), at(u, v + 1), shear_b.value_or(shear), SpringType::Shear, stiff_b);
         }
+        if (hinges) continue;
         if (u + 2 < nu) spring(at(u, v), at(u + 2, v), mb ? bend_u * row : bend_u, SpringType::Bend);
         if (v + 2 < nv) spring(at(u, v), at(u, v + 2), mb ? bend_v * column : bend_v, SpringType::Bend);
       }
+    if (hinges) {
+      // The warp runs at `warp` from u towards v.
+      const Vec3 u_dir = pm.rest[at(1, 0)] - pm.rest[at(0, 0)], v_dir = pm.rest[at(0, 1)] - pm.rest[at(0, 0)];
+      const Vec3 warp_dir = u_dir / length(u_dir) * float(std::cos(warp)) + v_dir / length(v_dir) * float(std::sin(warp));
+      // Each cell split along both diagonals, half the rigidity on each: one split alone lets the
+      // grid shear a little as it bends and halves the moment (a cantilever strip bent with B / 2).
+      std::vector<uint32_t> split_a, split_b;
+      for (uint32_t v = 0; v + 1 < nv; ++v)
+        for (uint32_t u = 0; u + 1 < nu; ++u) {
+          const uint32_t a = at(u, v), b = at(u + 1, v), c = at(u + 1, v + 1), d = at(u, v + 1);
+          split_a.insert(split_a.end(), {a, b, c, a, c, d});
+          split_b.insert(split_b.end(), {a, b, d, b, c, d});
+        }
+      add_hinges(warp_dir, split_a, 0.5);
+      add_hinges(warp_dir, split_b, 0.5);
+    }
   } else {
     // A triangle mesh: a third of each triangle's rest area to each corner; a stretch spring on
     // every edge; a bend spring across every interior edge, between the two opposite corners.
@@ -135,21 +199,23 @@ void add_panel(ClothModel& m, const SceneDef& s, size_t pi, const PanelMesh& pm)
       SpringType type;
       double k_stiff = 0;
     };
-    // A measured fabric's stretch springs, fitted triangle by triangle to its warp and weft.
+    // Where a measured fabric's warp runs in the panel's rest shape.
     const Vec3 warp_dir = pd.shape == PanelShape::Mesh ? make_vec3(float(std::cos(warp)), 0.0f, float(-std::sin(warp)))
                                                        : make_vec3(float(std::cos(warp)), float(std::sin(warp)), 0.0f);
-    std::map<std::pair<uint32_t, uint32_t>, std::array<double, 2>> data_stretch;
-    if (data && !mat.stretch_set) data_stretch = fabric::measured_mesh_stretch(data->data, pm.rest, pm.tris, warp_dir);
+    // A measured fabric's in-plane model on the triangles themselves (sim/membrane.h): no stretch springs.
+    const bool membranes = data && !mat.stretch_set;
+    if (membranes) add_membranes(m, data->data, pm.rest, pm.tris, base, warp_dir);
     std::vector<Planned> planned;
     double stretch_trace = 0, bend_trace = 0;  // sum of k l^2 over each kind: their in-plane stiffness
     for (const auto& [e, opp] : opposite) {
       const double area = edge_area[e];
       const double l = length(pm.rest[e.second] - pm.rest[e.first]);
-      const double ks = data && !mat.stretch_set       ? data_stretch[e][0]
-                        : measured && !mat.stretch_set ? fabric::edge_stretch(c, area, l) : double(mat.stretch);
-      planned.push_back({e.first, e.second, ks, SpringType::Stretch, data && !mat.stretch_set ? data_stretch[e][1] : 0.0});
-      stretch_trace += ks * l * l;
-      if (opp.size() == 2 && opp[0] != opp[1]) {
+      const double ks = measured && !mat.stretch_set ? fabric::edge_stretch(c, area, l) : double(mat.stretch);
+      if (!membranes) {
+        planned.push_back({e.first, e.second, ks, SpringType::Stretch});
+        stretch_trace += ks * l * l;
+      }
+      if (opp.size() == 2 && opp[0] != opp[1] && !hinges) {
         const double lb = length(pm.rest[opp[1]] - pm.rest[opp[0]]);
         const Vec3 across = pm.rest[opp[1]] - pm.rest[opp[0]], hinge = pm.rest[e.second] - pm.rest[e.first];
         const double kb = data && !mat.bend_set ? fabric::measured_hinge_bend(data->data, density, area, lb,
@@ -163,6 +229,7 @@ void add_panel(ClothModel& m, const SceneDef& s, size_t pi, const PanelMesh& pm)
     // in-plane stiffness (at most half: a mesh so fine that they pull more is stiffer than measured).
     const double give = (measured || data) && !mat.stretch_set && !mat.bend_set && stretch_trace > 0
                             ? std::min(bend_trace / stretch_trace, 0.5) : 0.0;
+    if (hinges) add_hinges(warp_dir, pm.tris, 1.0);
     for (const Planned& sp : planned)
       spring(sp.a, sp.b, float(sp.type == SpringType::Stretch ? sp.k * (1.0 - give) : sp.k), sp.type, float(sp.k_stiff * (1.0 - give)));
   }

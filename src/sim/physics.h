@@ -1,11 +1,12 @@
 // Per-vertex cloth physics, host and device: eq. (2) spring forces gathered over the vertex's
-// springs, gravity, viscous damping, and the explicit Euler step of eq. (3).
+// springs, hinge bending gathered over its hinges, gravity, viscous damping.
 #pragma once
 #include <cstdint>
 
 #include "fabric/stiffening.h"
 #include "raycloth/hd.h"
 #include "raycloth/vec3.h"
+#include "sim/membrane.h"
 #include "sim/model.h"
 
 namespace raycloth {
@@ -41,6 +42,32 @@ RC_HD Vec3 spring_force(const ModelView& m, const Vec3* x, const Vec3* v, uint32
     }
   }
   return f;
+}
+
+// Hinge bending (Hinge in sim/model.h): each of vertex i's hinges pulls it by -w_r (sum_j w_j x_j),
+// the gradient of 1/2 |sum_j w_j x_j|^2 at its corner r. Zero where the model has no hinges.
+RC_HD Vec3 hinge_force(const ModelView& m, const Vec3* x, uint32_t i) {
+  Vec3 f = make_vec3(0, 0, 0);
+  if (!m.hinge_offset) return f;
+  for (uint32_t e = m.hinge_offset[i]; e < m.hinge_offset[i + 1]; ++e) {
+    const uint32_t h = 4 * (m.hinge_entry[e] / 4), r = m.hinge_entry[e] % 4;
+    const Vec3 s = x[m.hinge_vertex[h]] * m.hinge_weight[h] + x[m.hinge_vertex[h + 1]] * m.hinge_weight[h + 1] +
+                   x[m.hinge_vertex[h + 2]] * m.hinge_weight[h + 2] + x[m.hinge_vertex[h + 3]] * m.hinge_weight[h + 3];
+    f -= s * m.hinge_weight[h + r];
+  }
+  return f;
+}
+
+// The hinges' share of vertex i's block of the stiffness matrix: sum over its hinges of w_r^2 (times
+// the identity).
+RC_HD float hinge_stiffness(const ModelView& m, uint32_t i) {
+  float k = 0.0f;
+  if (!m.hinge_offset) return k;
+  for (uint32_t e = m.hinge_offset[i]; e < m.hinge_offset[i + 1]; ++e) {
+    const float w = m.hinge_weight[4 * (m.hinge_entry[e] / 4) + m.hinge_entry[e] % 4];
+    k += w * w;
+  }
+  return k;
 }
 
 }  // namespace raycloth

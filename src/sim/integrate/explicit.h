@@ -18,7 +18,7 @@ RC_HD void integrate_vertex(const ModelView& m, const Vec3* x, const Vec3* v, ui
     x_next = x[i];
     return;
   }
-  const Vec3 a = (spring_force(m, x, v, i, sew) + external) * inv_mass + gravity - v[i] * m.damping[i];
+  const Vec3 a = (spring_force(m, x, v, i, sew) + hinge_force(m, x, i) + membrane_force(m, x, i) + external) * inv_mass + gravity - v[i] * m.damping[i];
   v_next = v[i] + a * dt;
   x_next = x[i] + v_next * dt;
 }

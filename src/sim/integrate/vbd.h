@@ -21,7 +21,7 @@ namespace raycloth {
 // one colour at a time (no two vertices of a colour share a spring) and takes, for each, one Newton
 // step on its own 3x3 block with the others held: dx_i = -H_i^{-1} G_i, with
 //   H_i = (m_i/dt^2 + m_i c_i/dt) I + sum_springs [k (d d^T + max(0, 1 - l/|x_j - x_i|)(I - d d^T))
-//         + k_d/dt d d^T] (+ (k_a + k_ad/dt) I for an attachment),
+//         + k_d/dt d d^T] (+ (k_a + k_ad/dt) I for an attachment, + sum w_r^2 I for hinges, + the membranes' blocks),
 // the spring term's transverse part clamped at 0 so that H_i stays positive definite. Each such
 // step lowers the incremental potential, so a sweep never diverges whatever dt is.
 struct Sym3 {
@@ -77,6 +77,18 @@ RC_HD Vec3 vbd_vertex(const ModelView& m, const Vec3* x, const Vec3* xn, uint32_
     const float along = m.adj_k_stiff ? fabric::stiffened_tangent(k, m.adj_k_stiff[e], stretch, rest) - ks * transverse
                                       : k * (1.0f - transverse);
     add_outer(h, dir, along + kd / dt);
+  }
+  // Hinge bending: linear in the positions, its block w_r^2 I.
+  if (m.hinge_offset) {
+    g -= hinge_force(m, xn, i);
+    add_identity(h, hinge_stiffness(m, i));
+  }
+  // Membranes: their block with the coefficients held (sim/membrane.h).
+  if (m.membrane_offset) {
+    g -= membrane_force(m, xn, i);
+    float b[6] = {0, 0, 0, 0, 0, 0};
+    membrane_block(m, xn, i, b);
+    h.xx += b[0], h.xy += b[1], h.xz += b[2], h.yy += b[3], h.yz += b[4], h.zz += b[5];
   }
   if (ka != 0.0f || kad != 0.0f) {
     g -= (attach_target - xi) * ka + (attach_velocity - vi) * kad;

@@ -18,6 +18,19 @@ void color_vertices(ClothModel& m) {
       const uint32_t c = color[m.adj_other[k]];
       if (c != 0xFFFFFFFFu) used[c] = 1u;
     }
+    // A hinge's corners move each other too: never two of one hinge in a colour.
+    if (!m.hinge_offset.empty())
+      for (uint32_t k = m.hinge_offset[i]; k < m.hinge_offset[i + 1]; ++k)
+        for (uint32_t j = 0; j < 4; ++j) {
+          const uint32_t c = color[m.hinge_vertex[4 * (m.hinge_entry[k] / 4) + j]];
+          if (c != 0xFFFFFFFFu) used[c] = 1u;
+        }
+    if (!m.membrane_offset.empty())
+      for (uint32_t k = m.membrane_offset[i]; k < m.membrane_offset[i + 1]; ++k)
+        for (uint32_t j = 0; j < 3; ++j) {
+          const uint32_t c = color[m.membrane_vertex[3 * (m.membrane_entry[k] / 3) + j]];
+          if (c != 0xFFFFFFFFu) used[c] = 1u;
+        }
     uint32_t c = 0;
     while (used[c]) ++c;
     color[i] = c;
