@@ -157,7 +157,8 @@ void add_panel(ClothModel& m, const SceneDef& s, size_t pi, const PanelMesh& pm)
     }
   } else {
     // A triangle mesh: a third of each triangle's rest area to each corner; a stretch spring on
-    // every edge; a bend spring across every interior edge, between the two opposite corners.
+    // every edge (a measured fabric: a membrane on every triangle instead); a bend spring across
+    // every interior edge, between the two opposite corners (a measured fabric: a hinge).
     std::vector<float> mass(pm.size(), 0.0f);
     std::map<std::pair<uint32_t, uint32_t>, std::vector<uint32_t>> opposite;
     std::map<std::pair<uint32_t, uint32_t>, double> edge_area;  // the areas of each edge's triangles

@@ -51,8 +51,11 @@ RC_HD Vec3 hinge_force(const ModelView& m, const Vec3* x, uint32_t i) {
   if (!m.hinge_offset) return f;
   for (uint32_t e = m.hinge_offset[i]; e < m.hinge_offset[i + 1]; ++e) {
     const uint32_t h = 4 * (m.hinge_entry[e] / 4), r = m.hinge_entry[e] % 4;
-    const Vec3 s = x[m.hinge_vertex[h]] * m.hinge_weight[h] + x[m.hinge_vertex[h + 1]] * m.hinge_weight[h + 1] +
-                   x[m.hinge_vertex[h + 2]] * m.hinge_weight[h + 2] + x[m.hinge_vertex[h + 3]] * m.hinge_weight[h + 3];
+    // The weights sum to 0: the sum is taken from corner 0, translation-free (on a garment 1.2 m up,
+    // the flat sheet's leftover force falls from 6e-5 to 4e-5 of a 1 mm fold's).
+    const Vec3 x0 = x[m.hinge_vertex[h]];
+    const Vec3 s = (x[m.hinge_vertex[h + 1]] - x0) * m.hinge_weight[h + 1] + (x[m.hinge_vertex[h + 2]] - x0) * m.hinge_weight[h + 2] +
+                   (x[m.hinge_vertex[h + 3]] - x0) * m.hinge_weight[h + 3];
     f -= s * m.hinge_weight[h + r];
   }
   return f;
