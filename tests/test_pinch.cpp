@@ -235,8 +235,8 @@ TEST(PinchCli, CheckOfAFolderWithObstaclesNeedsTheThicknessFromRunJson) {
 }
 
 // The squeeze scene: a press box driven down towards a table box, with a 0.6 m cloth lying on the
-// table, stops 1 mm above it, less than the 2 mm thickness. `pin` is added to the cloth.
-std::string squeeze_scene(const std::string& pin) {
+// table, stops `gap` above it (1 mm: less than the 2 mm thickness). `pin` is added to the cloth.
+std::string squeeze_scene(const std::string& pin, double gap = 0.001) {
   return R"({
     "name": "squeeze", "time": {"dt": 0.0004, "duration": 0.1, "fps": 30},
     "materials": [{"name": "cotton", "density": 0.2, "stretch": 200, "shear": 40, "bend": 4, "damping": 1.0}],
@@ -244,7 +244,8 @@ std::string squeeze_scene(const std::string& pin) {
                 "position": [0, 0.21, 0]}],
     "pins": [)" + pin + R"(],
     "obstacles": [{"name": "table", "type": "box", "size": [0.4, 0.2, 0.4], "position": [0, 0.1, 0]},
-                  {"name": "press", "type": "box", "size": [0.2, 0.2, 0.2], "position": [0, 0.351, 0],
+                  {"name": "press", "type": "box", "size": [0.2, 0.2, 0.2], "position": [0, )" +
+         std::to_string(0.35 + gap) + R"(, 0],
                    "motion": {"velocity": [0, -0.5, 0]}}]})";
 }
 
@@ -270,6 +271,33 @@ TEST(PinchCli, ClothSqueezedBetweenTwoBodiesGoesHalfwayAcrossTheirGap) {
     ++under;
     EXPECT_GT(y, 0.2) << line;   // above the table
     EXPECT_LT(y, 0.201) << line; // below the press
+  }
+  EXPECT_EQ(under, 9);
+}
+
+// A press stopping 0.1 mm above the table (a forearm swung against the hip): halfway across the
+// gap is 50 um off both boxes, outside both, and the run is clean. Before, a gap under a tenth of the
+// push (0.2 mm here) was taken for surfaces that touch: every vertex under the press went the whole
+// thickness off one box, into the other, step after step (9 pinched, exit 3).
+TEST(PinchCli, ClothSqueezedIntoATenthOfTheThicknessStillGoesHalfwayAcross) {
+  const fs::path dir = fresh_dir("squeeze_thin");
+  fs::create_directories(dir);
+  std::ofstream(dir / "squeeze.json") << squeeze_scene("", 0.0001);
+  const fs::path out = dir / "out";
+  const Result r = run_cli("run " + (dir / "squeeze.json").string() + " --quiet --out " + out.string(), dir);
+  EXPECT_EQ(r.code, 0) << r.err;
+  std::ifstream in(out / "frames" / "cloth_0003.obj");
+  std::string line;
+  int under = 0;
+  while (std::getline(in, line)) {
+    if (line.rfind("v ", 0) != 0) continue;
+    std::istringstream v(line.substr(2));
+    double x, y, z;
+    v >> x >> y >> z;
+    if (std::fabs(x) >= 0.1 || std::fabs(z) >= 0.1) continue;
+    ++under;
+    EXPECT_GT(y, 0.2) << line;     // above the table
+    EXPECT_LT(y, 0.2003) << line;  // halfway to the press (its last steps 0.3 to 0.1 mm above it)
   }
   EXPECT_EQ(under, 9);
 }

@@ -117,13 +117,13 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
         // A pinch: where the body brings another of its surfaces within the offset in front of the
         // point it pushes the vertex out from (an arm against the side), the offset would put the
         // vertex inside that one. It goes halfway across the body's gap instead, outside both. A
-        // face met within kPinchMinGap of the offset is a neighbour grazed at a crease or a surface
-        // touching this one: halfway is then on the surface, where an open body's inside is not
-        // defined, so the vertex takes the whole offset as before.
+        // face met within kPinchMinGap is a neighbour grazed at a crease or a surface touching this
+        // one: halfway is then on the surface, where an open body's inside is not defined, so the
+        // vertex takes the whole offset as before.
         {
           const Vec3 from = xn - out * offset;
           const float gap = pinch_gap_along(s, from, out, offset, q.prim);
-          if (gap < offset && gap >= kPinchMinGap * offset) xn = from + out * (0.5f * gap);
+          if (gap < offset && gap >= kPinchMinGap) xn = from + out * (0.5f * gap);
         }
         Vec3 u = make_vec3(0, 0, 0);
         if (s.geom.obstacle_velocities) {

@@ -187,9 +187,11 @@ inline constexpr uint32_t kFlagSqueezed = 128u; // held between a body and cloth
 // and cloth that another body (or another side of the body) pushes from the far side cannot be at
 // the thickness from both; it yields into its own thickness toward the body, never into the body.
 inline constexpr float kSqueezeOffset = 0.25f;
-// The smallest body gap, as a share of the offset, that a pushed vertex is put halfway across
-// (stage_obstacles).
-inline constexpr float kPinchMinGap = 0.1f;
+// The smallest body gap (metres) that a pushed vertex is put halfway across (stage_obstacles):
+// halfway across it the vertex is 10 um off both surfaces, far above the rounding of float positions
+// near a body (0.1 um at 1 m); a gap below it is surfaces that touch, or a neighbouring face met at
+// a crease, where halfway would be on the surface.
+inline constexpr float kPinchMinGap = 2e-5f;
 
 
 
