@@ -81,6 +81,7 @@ RC_HD DVec3 operator+(DVec3 a, DVec3 b) { return DVec3{a.x + b.x, a.y + b.y, a.z
 RC_HD DVec3 operator-(DVec3 a, DVec3 b) { return DVec3{a.x - b.x, a.y - b.y, a.z - b.z}; }
 RC_HD DVec3 operator*(DVec3 a, double s) { return DVec3{a.x * s, a.y * s, a.z * s}; }
 RC_HD double ddot(DVec3 a, DVec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+RC_HD DVec3 dcross(DVec3 a, DVec3 b) { return DVec3{a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 RC_HD double dclamp01(double t) { return t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t); }
 
 // The point of triangle abc closest to p (Ericson, Real-Time Collision Detection 5.1.5), as

@@ -9,8 +9,6 @@ namespace raycloth {
 
 namespace {
 
-DVec3 dcross(DVec3 a, DVec3 b) { return DVec3{a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-
 // cot of the angle between a and b; false when they are parallel.
 bool cot(DVec3 a, DVec3 b, double& c) {
   const DVec3 n = dcross(a, b);

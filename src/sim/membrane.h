@@ -99,12 +99,14 @@ RC_HD Vec3 membrane_force(const ModelView& m, const Vec3* x, uint32_t i) {
 
 // Vertex i's block of the membranes' stiffness, for the implicit step (symmetric, 6 floats: xx, xy, xz,
 // yy, yz, zz): A [max(0, g^T S g) I + F Q F^T], Q the 2 x 2 of the material part (dS = C dG with
-// dG = sym(F^T d g^T), C the tangents), positive semi-definite where they are.
-RC_HD void membrane_block(const ModelView& m, const Vec3* x, uint32_t i, float h[6]) {
+// dG = sym(F^T d g^T), C the tangents), positive semi-definite where they are. With `f`, also adds
+// vertex i's membrane force to it from the same states (membrane_force, not computed twice).
+RC_HD void membrane_block(const ModelView& m, const Vec3* x, uint32_t i, float h[6], Vec3* f = nullptr) {
   if (!m.membrane_offset) return;
   for (uint32_t e = m.membrane_offset[i]; e < m.membrane_offset[i + 1]; ++e) {
     const MembraneState st = membrane_state(m, x, m.membrane_entry[e] / 3);
     const uint32_t c = m.membrane_entry[e] % 3;
+    if (f) *f += membrane_corner_force(st, c);
     const float gs = st.gs[c], gt = st.gt[c];
     const float geometric = fmaxf(0.0f, gs * (st.sss * gs + st.sst * gt) + gt * (st.sst * gs + st.stt * gt));
     // Q columns: for u = e_s, dG = [[gs, gt / 2], [gt / 2, 0]]; for u = e_t, dG = [[0, gs / 2], [gs / 2, gt]].

@@ -31,7 +31,7 @@ void add_membranes(ClothModel& m, const fabric::MeasuredData& d, const std::vect
   if (fabric * kMembraneLaw == m.membrane_law.size()) m.membrane_law.insert(m.membrane_law.end(), law.begin(), law.end());
   for (size_t t = 0; t + 2 < tris.size(); t += 3) {
     const DVec3 p0 = dvec(rest[tris[t]]), e1 = dvec(rest[tris[t + 1]]) - p0, e2 = dvec(rest[tris[t + 2]]) - p0;
-    DVec3 n{e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z, e1.x * e2.y - e1.y * e2.x};
+    DVec3 n = dcross(e1, e2);
     const double twice_area = std::sqrt(ddot(n, n));
     if (!(twice_area > 0)) continue;
     n = n * (1.0 / twice_area);

@@ -85,9 +85,10 @@ RC_HD Vec3 vbd_vertex(const ModelView& m, const Vec3* x, const Vec3* xn, uint32_
   }
   // Membranes: their block with the coefficients held (sim/membrane.h).
   if (m.membrane_offset) {
-    g -= membrane_force(m, xn, i);
     float b[6] = {0, 0, 0, 0, 0, 0};
-    membrane_block(m, xn, i, b);
+    Vec3 fm = make_vec3(0, 0, 0);
+    membrane_block(m, xn, i, b, &fm);
+    g -= fm;
     h.xx += b[0], h.xy += b[1], h.xz += b[2], h.yy += b[3], h.yz += b[4], h.zz += b[5];
   }
   if (ka != 0.0f || kad != 0.0f) {
