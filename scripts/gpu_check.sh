@@ -12,7 +12,7 @@ src=$(cat "$rc/source_dir")
 export LD_LIBRARY_PATH=$rc/lib
 B=$rc/bin
 logs=/tmp/gpu_logs; rm -rf "$logs"; mkdir -p "$logs"
-steps=${STEPS:-"info tests seed_cuda bench walking_skirt garment seed_cpu sanitize"}
+steps=${STEPS:-"info tests seed_cuda bench walking_skirt garment implicit drape seed_cpu sanitize"}
 step() {  # name limit command...
   local name=$1 limit=$2; shift 2
   local t0; t0=$(date +%s%N)
@@ -33,10 +33,13 @@ for s in $steps; do case $s in
             [ -d /tmp/seed_cuda ] && step seed_compare 60 python3 scripts/compare_runs.py /tmp/seed_cpu /tmp/seed_cuda ;;
   walking_skirt) step walking_skirt 60 "$B/raycloth" run scenes/walking_skirt.json --device cuda --duration 0.3 -o /tmp/skirt_cuda ;;
   garment) step garment 60 "$B/raycloth" run scenes/garment_on_man.json --device cuda --duration 0.2 -o /tmp/garment_cuda ;;
+  implicit) step implicit_cuda 60 "$B/raycloth" run bench/walking_skirt_implicit.json --device cuda --duration 0.3 -o /tmp/implicit_cuda
+            step implicit_cpu 60 "$B/raycloth" run bench/walking_skirt_implicit.json --device cpu --duration 0.3 -o /tmp/implicit_cpu ;;
+  drape) step drape_cuda 60 "$B/raycloth" run scenes/fabric/drape_denim.json --device cuda --duration 0.05 -o /tmp/drape_cuda ;;
   garments) TAILN=30 step garments "${GARMENTS_LIMIT:-400}" "$B/raycloth" batch scenes/sweeps/garmentcode_all.json --out /tmp/garments \
               --jobs "${GARMENT_JOBS:-4}" --device cuda --table -q
             (cd /tmp/garments && tar -czf "$out/garments.tar.gz" results.* cases/*/run.json cases/*/*.log 2>/dev/null) ;;
-  sanitize) TAILN=25 step sanitize 90 compute-sanitizer --tool memcheck --leak-check no \
-            "$B/raycloth_tests" --gtest_filter='CudaParity.DefaultSceneMatchesCpuCloselyBeforeContact:CudaParity.MovingObstacleMatchesCpu' ;;
+  sanitize) TAILN=25 step sanitize 120 compute-sanitizer --tool memcheck --leak-check no \
+            "$B/raycloth_tests" --gtest_filter='CudaParity.DefaultSceneMatchesCpuCloselyBeforeContact:CudaParity.MovingObstacleMatchesCpu:CudaParity.ImplicitStepMatchesCpuBeforeContact:CudaParity.MeasuredFabricMembranesAndHingesMatchCpu' ;;
 esac; done
 ls /tmp/*/run.json >/dev/null 2>&1 && tar -czf "$out/runs.tar.gz" /tmp/*/run.json 2>/dev/null
