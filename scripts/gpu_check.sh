@@ -3,6 +3,8 @@
 # runs the GPU tests, the benchmark on both devices and GPU runs of shipped scenes with the exact
 # check, each under a time limit, appending every step's whole output to $OUT/all.log (default
 # /tmp/gpu_out), the runs' run.json files to $OUT/runs.tar.gz, and a summary to stdout. STEPS="tests bench ..." picks steps (default: all, in the order below).
+# With .gpu/before.tar.xz (an earlier pack), step `ab` runs SCENES_AB with the earlier and the new
+# command line in turn, twice, for a before/after on the same GPU.
 set -u
 cd "$(dirname "$0")/.."
 out=${OUT:-/tmp/gpu_out}; mkdir -p "$out"
@@ -11,6 +13,7 @@ src=$(cat "$rc/source_dir")
 [ -e "$src" ] || { mkdir -p "$(dirname "$src")" && ln -s "$PWD" "$src"; }
 export LD_LIBRARY_PATH=$rc/lib
 B=$rc/bin
+if [ -f .gpu/before.tar.xz ]; then rm -rf /tmp/rc_before; mkdir -p /tmp/rc_before; tar -xJf .gpu/before.tar.xz -C /tmp/rc_before; fi
 logs=/tmp/gpu_logs; rm -rf "$logs"; mkdir -p "$logs"
 steps=${STEPS:-"info tests seed_cuda bench walking_skirt garment implicit drape seed_cpu sanitize"}
 step() {  # name limit command...
@@ -36,6 +39,11 @@ for s in $steps; do case $s in
   implicit) step implicit_cuda 60 "$B/raycloth" run bench/walking_skirt_implicit.json --device cuda --duration 0.3 -o /tmp/implicit_cuda
             step implicit_cpu 60 "$B/raycloth" run bench/walking_skirt_implicit.json --device cpu --duration 0.3 -o /tmp/implicit_cpu ;;
   drape) step drape_cuda 60 "$B/raycloth" run scenes/fabric/drape_denim.json --device cuda --duration 0.05 -o /tmp/drape_cuda ;;
+  ab) for round in 1 2; do for scene in ${SCENES_AB:-bench/walking_skirt_implicit.json}; do
+        name=$(basename "$scene" .json)
+        PICK='steps/s|stages per step|exact check' step "before_${name}_$round" 90 /tmp/rc_before/bin/raycloth run "$scene" --device cuda --duration "${AB_DURATION:-0.3}" -o "/tmp/before_${name}_$round"
+        PICK='steps/s|stages per step|exact check' step "after_${name}_$round" 90 "$B/raycloth" run "$scene" --device cuda --duration "${AB_DURATION:-0.3}" -o "/tmp/after_${name}_$round"
+      done; done ;;
   garments) TAILN=30 step garments "${GARMENTS_LIMIT:-400}" "$B/raycloth" batch scenes/sweeps/garmentcode_all.json --out /tmp/garments \
               --jobs "${GARMENT_JOBS:-4}" --device cuda --table -q
             (cd /tmp/garments && tar -czf "$out/garments.tar.gz" results.* cases/*/run.json cases/*/*.log 2>/dev/null) ;;

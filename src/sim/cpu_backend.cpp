@@ -163,6 +163,12 @@ class CpuBackend final : public Backend {
     add_time(stage, t);
   }
 
+  // One parallel loop after another.
+  template <class F>
+  void phases(Stage stage, const PhaseSizes& p, F&& f) {
+    for (uint32_t q = 0; q < p.count; ++q) for_each(stage, p.size[q], [&](uint32_t k) { f(q, k); });
+  }
+
   template <class F>
   void sum(Stage stage, uint32_t n, F&& f, uint32_t* slot) {
     const auto t = Clock::now();

@@ -3,8 +3,10 @@
 // functions), casts against the LBVH of collide/bvh.h and keeps the step's counters in device
 // memory. Obstacle poses for a whole call are uploaded once at its start; the only transfer per
 // step is the small StepCounters read back after it (blow-up detection). docs/gpu.md.
+#include <cooperative_groups.h>
 #include <cub/block/block_reduce.cuh>
 
+#include <algorithm>
 #include <cstddef>
 #include <string>
 #include <utility>
@@ -28,6 +30,21 @@ template <class F>
 __global__ void k_for_each(uint32_t n, F f) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i < n) f(i);
+}
+
+// The phases of sim/stage_time.h in one kernel: each phase a grid-stride loop, then a barrier (the
+// block's when the grid is one block, else the grid's: a cooperative launch).
+template <class F>
+__global__ void k_phases(PhaseSizes sizes, F f) {
+  const uint32_t stride = gridDim.x * blockDim.x, first = blockIdx.x * blockDim.x + threadIdx.x;
+  for (uint32_t p = 0; p < sizes.count; ++p) {
+    for (uint32_t k = first; k < sizes.size[p]; k += stride) f(p, k);
+    if (p + 1 == sizes.count) break;
+    if (gridDim.x == 1)
+      __syncthreads();
+    else
+      cooperative_groups::this_grid().sync();
+  }
 }
 
 // *slot += sum of f(i): a block sum, then one atomic add per block (integers: order-independent).
@@ -166,6 +183,35 @@ class CudaBackend final : public Backend {
     mark(stage);
     k_for_each<<<grid_for(n), kBlock, 0, stream_>>>(n, f);
     CUDA_CHECK_LAUNCH();
+  }
+
+  // One kernel for all the phases. Up to kOneBlockPhase elements in the largest phase, one block
+  // (a block barrier costs far less than the grid's); else as many blocks as fit on the GPU at once
+  // (a grid barrier needs every block resident), each looping over its share.
+  static constexpr uint32_t kOneBlockPhase = 8 * kBlock;
+
+  template <class F>
+  void phases(Stage stage, const PhaseSizes& sizes, F f) {
+    if (sizes.count == 0) return;
+    mark(stage);
+    const uint32_t largest = sizes.largest();
+    if (largest <= kOneBlockPhase) {
+      k_phases<<<1, kBlock, 0, stream_>>>(sizes, f);
+      CUDA_CHECK_LAUNCH();
+      return;
+    }
+    static const unsigned resident = [] {
+      int device = 0, sms = 0, per_sm = 0;
+      CUDA_CHECK(cudaGetDevice(&device));
+      CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
+      CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, k_phases<F>, kBlock, 0));
+      return unsigned(sms) * unsigned(per_sm);
+    }();
+    const unsigned blocks = std::min(grid_for(largest), resident);
+    PhaseSizes arg = sizes;
+    void* args[] = {&arg, &f};
+    CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<const void*>(&k_phases<F>), dim3(blocks), dim3(kBlock), args, 0,
+                                           stream_));
   }
 
   template <class F>

@@ -14,6 +14,23 @@ namespace raycloth {
 
 enum class Stage { Integrate, Update, Cast, Respond, Contact, Bound };
 
+// A sequence of dependent loops handed to an executor at once (`phases`, sim/step.h): phase p runs
+// f(p, k) for every k in [0, size[p]) and sees everything the phases before it wrote. The CPU runs
+// them one parallel loop after another; the GPU runs them in one kernel with a barrier between
+// phases, instead of a launch each.
+inline constexpr uint32_t kMaxPhases = 128;
+
+struct PhaseSizes {
+  uint32_t count = 0;
+  uint32_t size[kMaxPhases] = {};
+  void add(uint32_t n) { size[count++] = n; }  // the caller keeps count below kMaxPhases
+  uint32_t largest() const {
+    uint32_t m = 0;
+    for (uint32_t p = 0; p < count; ++p) m = size[p] > m ? size[p] : m;
+    return m;
+  }
+};
+
 // Books `seconds` to a stage's total.
 inline void add_stage_time(StageTimes& t, Stage stage, double seconds) {
   switch (stage) {

@@ -4,6 +4,8 @@
 //   StepView begin(uint64_t step)  obstacles posed at t + dt, ray structures updated (obstacles at
 //                                  t + dt, cloth at x), counters zeroed
 //   for_each(stage, n, f)          f(i) for i in [0, n)
+//   phases(stage, sizes, f)        for each phase p in order, f(p, k) for k in [0, sizes.size[p])
+//                                  (sim/stage_time.h: the GPU runs them as one kernel)
 //   sum(stage, n, f, slot)         *slot += sum of f(i)            (uint32)
 //   first(stage, n, f, slot)       *slot = min(*slot, smallest i with f(i) false)
 //   cast(rays, n, hits)            nearest hit per ray against obstacles and cloth

@@ -239,6 +239,30 @@ RC_HD void stage_follow_response(const StepView& s, uint32_t i) {
   if (s.contacts[i].w >= 0.0f && s.model.inv_mass[i] != 0.0f) s.x_next[i] = s.x[i] + s.v_next[i] * s.ctx.dt;
 }
 
+// The sweeps of one step as phases (sim/stage_time.h): per sweep, the iterate saved, each colour in
+// turn (colour c is color_vertices[color_first[c], color_first[c + 1])), then the acceleration
+// (none after the last sweep). Phase 0 of a call is the start of sweep first_sweep.
+inline constexpr uint32_t kMaxSweepColors = kMaxPhases - 2;
+
+struct SweepPlan {
+  uint32_t colors = 0;
+  uint32_t first_sweep = 0;
+  uint32_t color_first[kMaxSweepColors + 1] = {};
+};
+
+RC_HD void sweep_phase(const StepView& s, const VbdView& v, const SweepPlan& plan, uint32_t p, uint32_t k) {
+  const uint32_t per = plan.colors + 2u, sweep = plan.first_sweep + p / per, r = p % per;
+  if (r == 0u) {
+    stage_sweep_save(s, v, k);
+  } else if (r <= plan.colors) {
+    stage_implicit_vertex(s, v, s.model.color_vertices[plan.color_first[r - 1u] + k], sweep + 1u == v.iterations);
+  } else {
+    stage_sweep_accelerate(s, v, k, chebyshev_omega(sweep));
+  }
+}
+
+[[noreturn]] void throw_too_many_colors(uint32_t colors);
+
 // The scratch arrays in the backend's memory (HostArray or DeviceBuffer), sized for n vertices.
 template <template <class> class Array>
 struct VbdScratch {
@@ -277,17 +301,21 @@ class VertexBlockDescent {
     const uint32_t n = s.model.num_vertices;
     ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_begin(s, i); });
     ex.for_each(Stage::Integrate, n, [s, v] RC_LAMBDA(uint32_t i) { stage_implicit_plane(s, v, i); });
-    for (uint32_t sweep = 0; sweep < v.iterations; ++sweep) {
-      const bool last = sweep + 1 == v.iterations;
-      ex.for_each(Stage::Integrate, n, [s, v] RC_LAMBDA(uint32_t i) { stage_sweep_save(s, v, i); });
-      for (uint32_t c = 0; c < s.model.num_colors; ++c) {
-        const uint32_t first = s.model.color_offset[c], count = s.model.color_offset[c + 1] - first;
-        ex.for_each(Stage::Integrate, count, [s, v, first, last] RC_LAMBDA(uint32_t k) {
-          stage_implicit_vertex(s, v, s.model.color_vertices[first + k], last);
-        });
+    // The sweeps as phases (sim/stage_time.h), as many sweeps to a call as kMaxPhases holds.
+    const uint32_t per = s.model.num_colors + 2u;
+    if (s.model.num_colors > kMaxSweepColors) throw_too_many_colors(s.model.num_colors);
+    SweepPlan plan;
+    plan.colors = s.model.num_colors;
+    for (uint32_t c = 0; c <= plan.colors; ++c) plan.color_first[c] = s.model.color_offset[c];
+    for (uint32_t first = 0; first < v.iterations; first += kMaxPhases / per) {
+      plan.first_sweep = first;
+      PhaseSizes sizes;
+      for (uint32_t sweep = first; sweep < v.iterations && sweep < first + kMaxPhases / per; ++sweep) {
+        sizes.add(n);
+        for (uint32_t c = 0; c < plan.colors; ++c) sizes.add(plan.color_first[c + 1] - plan.color_first[c]);
+        sizes.add(sweep + 1 == v.iterations ? 0u : n);
       }
-      const float omega = chebyshev_omega(sweep);
-      if (!last) ex.for_each(Stage::Integrate, n, [s, v, omega] RC_LAMBDA(uint32_t i) { stage_sweep_accelerate(s, v, i, omega); });
+      ex.phases(Stage::Integrate, sizes, [s, v, plan] RC_LAMBDA(uint32_t p, uint32_t k) { sweep_phase(s, v, plan, p, k); });
     }
     ex.for_each(Stage::Integrate, 1, [s, v] RC_LAMBDA(uint32_t) { stage_implicit_converged(s, v); });
     ex.for_each(Stage::Integrate, n, [s] RC_LAMBDA(uint32_t i) { stage_implicit_end(s, i); });

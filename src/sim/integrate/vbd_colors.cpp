@@ -2,9 +2,19 @@
 #include "sim/integrate/vbd_colors.h"
 
 #include <algorithm>
+#include <string>
 #include <vector>
 
+#include "raycloth/error.h"
+#include "sim/integrate/vbd.h"
+
 namespace raycloth {
+
+void throw_too_many_colors(uint32_t colors) {
+  throw SimulationError("the implicit integrator's colouring of this cloth needs " + std::to_string(colors) +
+                        " colours; its sweeps take at most " + std::to_string(kMaxSweepColors) +
+                        " (a vertex with that many springs, hinges or membranes to others)");
+}
 
 void color_vertices(ClothModel& m) {
   const uint32_t n = m.num_vertices();
