@@ -141,7 +141,7 @@ inline constexpr double kWeldCheckTime = 0.002;
 inline constexpr double kImplicitMaxBodyMove = 0.0005;
 // The fewest sweeps of a substep: 2, so that the last sweep's change still says how far the solve is
 // from converged. A substep is near the explicit step's length (0.27 ms on the walking skirt against
-// its explicit limit of 0.85 ms), so its solve starts near its answer; 4 were taken until 0.5.x (after 0.5.0), for
+// its explicit limit of 0.85 ms), so its solve starts near its answer; 4 were taken up to 0.5.0; 2 give
 // the same contact tests passing and 1.2 times the steps per second (docs/performance.md).
 inline constexpr int kMinSubstepSweeps = 2;
 
