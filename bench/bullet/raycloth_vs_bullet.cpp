@@ -131,7 +131,7 @@ CheckMesh sphere_check_mesh(const PeerScene& s) {
   return c;
 }
 
-Result run_raycloth(const PeerScene& s) {
+Result run_raycloth(const PeerScene& s, const std::string& device) {
   Result r;
   r.name = "raycloth";
   r.note = "";
@@ -139,7 +139,9 @@ Result run_raycloth(const PeerScene& s) {
   r.threads = int(std::thread::hardware_concurrency());
   const double c0 = cpu_seconds();
   const auto t0 = std::chrono::steady_clock::now();
-  Simulator sim(s.def);
+  SimOptions options;
+  options.device = device;
+  Simulator sim(s.def, options);
   r.setup_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r.steps = std::lround(s.def.time.duration / s.def.time.dt);
   sim.step(int(r.steps));
@@ -150,7 +152,7 @@ Result run_raycloth(const PeerScene& s) {
       check_state(cloth_check_mesh(sim.model(), x), obstacle_check_mesh(sim.obstacles(), sim.obstacle_vertices()));
   r.crossings = check.crossings, r.inside = check.vertices_inside;
   grid_stretch(x, s.panel->resolution_u, s.panel->resolution_v, s.panel->width, s.panel->height, r);
-  r.note = fmt::format("cloth-cloth {}", s.def.collision.cloth_cloth ? "on" : "off");
+  r.note = fmt::format("cloth-cloth {}, device {}", s.def.collision.cloth_cloth ? "on" : "off", sim.device());
   return r;
 }
 
@@ -373,6 +375,9 @@ int main(int argc, char** argv) {
   BlenderOptions blender;
   bool skip_blender = false;
   std::vector<std::string> also;
+  std::string device = "cpu";
+  app.add_option("--device", device, "raycloth's device: cpu, cuda or auto (Bullet and Blender run on the CPU)")
+      ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   app.add_option("--scene", scene_file, "Scene file (one rectangular panel over one uv_sphere)");
   app.add_option("--json", json_file, "Also write the results as JSON to this file");
   app.add_option("--bullet-dt", bo.dt, "Bullet's time step, seconds")->check(CLI::Range(1e-5, 0.05));
@@ -402,9 +407,9 @@ int main(int argc, char** argv) {
                 << std::flush;
       results.push_back(r);
     };
-    report(run_raycloth(scene));
+    report(run_raycloth(scene, device));
     for (const std::string& file : also) {
-      Result r = run_raycloth(peer_scene(file));
+      Result r = run_raycloth(peer_scene(file), device);
       r.name = fmt::format("raycloth ({})", std::filesystem::path(file).stem().string());
       report(r);
     }
