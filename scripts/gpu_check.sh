@@ -44,6 +44,12 @@ for s in $steps; do case $s in
         PICK='steps/s|stages per step|exact check' step "before_${name}_$round" 90 /tmp/rc_before/bin/raycloth run "$scene" --device cuda --duration "${AB_DURATION:-0.3}" -o "/tmp/before_${name}_$round"
         PICK='steps/s|stages per step|exact check' step "after_${name}_$round" 90 "$B/raycloth" run "$scene" --device cuda --duration "${AB_DURATION:-0.3}" -o "/tmp/after_${name}_$round"
       done; done ;;
+  targets) TAILN=20 step vs_bullet 200 "$B/raycloth_vs_bullet" --device cuda --also bench/peers_drape_implicit.json --no-blender \
+              --json "$out/vs_bullet.json"
+           for scene in scenes/walking_dress_gc.json scenes/garment_on_man.json scenes/walking_skirt.json bench/walking_skirt_implicit.json; do
+             PICK='steps/s|stages per step|exact check' step "full_$(basename "$scene" .json)" 120 "$B/raycloth" run "$scene" --device cuda \
+               -o "/tmp/full_$(basename "$scene" .json)"
+           done ;;
   garments) TAILN=30 step garments "${GARMENTS_LIMIT:-400}" "$B/raycloth" batch scenes/sweeps/garmentcode_all.json --out /tmp/garments \
               --jobs "${GARMENT_JOBS:-4}" --device cuda --table -q
             (cd /tmp/garments && tar -czf "$out/garments.tar.gz" results.* cases/*/run.json cases/*/*.log 2>/dev/null) ;;

@@ -4,6 +4,8 @@
 # they load except the C library, into .gpu/rc.tar.xz (ignored by git). scripts/gpu_check.sh unpacks
 # and runs it there.
 #   scripts/gpu_pack.sh [BUILD_DIR]   (default build; it must have been configured with nvcc found)
+# EXTRA="path ..." adds further programs (e.g. build-bullet/raycloth_vs_bullet, built with
+# -DRAYCLOTH_BULLET=ON), with their libraries.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -11,6 +13,7 @@ grep -q 'RAYCLOTH_HAS_CUDA\|CMAKE_CUDA_COMPILER:' "$build/CMakeCache.txt" || { e
 stage=$(mktemp -d)
 mkdir -p "$stage/bin" "$stage/lib"
 bins=("$build/raycloth" "$build/tests/raycloth_tests" "$build/bench/raycloth_bench")
+for extra in ${EXTRA:-}; do bins+=("$extra"); done
 for b in "${bins[@]}"; do strip -o "$stage/bin/$(basename "$b")" "$b"; done
 # Every library the programs load, by the name they ask for, less glibc's own (the target's is used).
 for lib in $(ldd "${bins[@]}" | awk '/=>/ {print $3}' | sort -u); do
