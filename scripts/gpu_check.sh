@@ -50,6 +50,10 @@ for s in $steps; do case $s in
              PICK='steps/s|stages per step|exact check' step "full_$(basename "$scene" .json)" 120 "$B/raycloth" run "$scene" --device cuda \
                -o "/tmp/full_$(basename "$scene" .json)"
            done ;;
+  sweeps) for it in ${SWEEPS:-60 100}; do  # the peers' implicit drape with more sweeps (.gpu/peers_itN.json)
+            TAILN=8 step "vs_bullet_$it" 120 "$B/raycloth_vs_bullet" --device cuda --scene ".gpu/peers_it$it.json" --no-bullet-self \
+              --no-blender --json "$out/vs_bullet_$it.json"
+          done ;;
   garments) TAILN=30 step garments "${GARMENTS_LIMIT:-400}" "$B/raycloth" batch scenes/sweeps/garmentcode_all.json --out /tmp/garments \
               --jobs "${GARMENT_JOBS:-4}" --device cuda --table -q
             (cd /tmp/garments && tar -czf "$out/garments.tar.gz" results.* cases/*/run.json cases/*/*.log 2>/dev/null) ;;
