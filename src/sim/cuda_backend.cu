@@ -47,6 +47,13 @@ __global__ void k_phases(PhaseSizes sizes, F f) {
   }
 }
 
+// One phase of k_phases as a kernel of its own (a GPU without cooperative launches).
+template <class F>
+__global__ void k_phase(uint32_t p, uint32_t n, F f) {
+  const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k < n) f(p, k);
+}
+
 // *slot += sum of f(i): a block sum, then one atomic add per block (integers: order-independent).
 template <class F>
 __global__ void k_sum(uint32_t n, F f, uint32_t* slot) {
@@ -187,7 +194,8 @@ class CudaBackend final : public Backend {
 
   // One kernel for all the phases. Up to kOneBlockPhase elements in the largest phase, one block
   // (a block barrier costs far less than the grid's); else as many blocks as fit on the GPU at once
-  // (a grid barrier needs every block resident), each looping over its share.
+  // (a grid barrier needs every block resident), each looping over its share; on a GPU that cannot
+  // launch cooperatively, a kernel a phase.
   static constexpr uint32_t kOneBlockPhase = 8 * kBlock;
 
   template <class F>
@@ -198,6 +206,20 @@ class CudaBackend final : public Backend {
     if (largest <= kOneBlockPhase) {
       k_phases<<<1, kBlock, 0, stream_>>>(sizes, f);
       CUDA_CHECK_LAUNCH();
+      return;
+    }
+    static const bool cooperative = [] {
+      int device = 0, supported = 0;
+      CUDA_CHECK(cudaGetDevice(&device));
+      CUDA_CHECK(cudaDeviceGetAttribute(&supported, cudaDevAttrCooperativeLaunch, device));
+      return supported != 0;
+    }();
+    if (!cooperative) {  // a launch a phase, as for_each would
+      for (uint32_t p = 0; p < sizes.count; ++p) {
+        if (sizes.size[p] == 0) continue;
+        k_phase<<<grid_for(sizes.size[p]), kBlock, 0, stream_>>>(p, sizes.size[p], f);
+        CUDA_CHECK_LAUNCH();
+      }
       return;
     }
     static const unsigned resident = [] {
