@@ -60,4 +60,4 @@ for s in $steps; do case $s in
   sanitize) TAILN=25 step sanitize 120 compute-sanitizer --tool memcheck --leak-check no \
             "$B/raycloth_tests" --gtest_filter='CudaParity.DefaultSceneMatchesCpuCloselyBeforeContact:CudaParity.MovingObstacleMatchesCpu:CudaParity.ImplicitStepMatchesCpuBeforeContact:CudaParity.MeasuredFabricMembranesAndHingesMatchCpu' ;;
 esac; done
-ls /tmp/*/run.json >/dev/null 2>&1 && tar -czf "$out/runs.tar.gz" /tmp/*/run.json 2>/dev/null
+if ls /tmp/*/run.json >/dev/null 2>&1; then tar -czf "$out/runs.tar.gz" /tmp/*/run.json 2>/dev/null; fi
