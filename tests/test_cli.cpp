@@ -219,3 +219,30 @@ TEST(Cli, RunWhosePenetrationCheckFailsExitsOneWithEverythingWritten) {
   const Result c = run_cli("check --quiet " + out.string(), dir);
   EXPECT_EQ(c.code, 1) << c.out;
 }
+
+// Where a body moves, the implicit step is done in substeps, each a solve of its own; the warning of
+// unconverged solves counted them against whole steps ("in 60 of 6 steps").
+TEST(Cli, UnconvergedImplicitSolvesAreCountedAgainstSolvesWhereABodyMoves) {
+  const fs::path dir = fresh_dir("unconverged");
+  fs::create_directories(dir);
+  std::ofstream(dir / "box.json") << R"({
+    "time": {"dt": 0.016666666666666666, "integrator": "implicit", "iterations": 2, "tolerance": 1e-9, "duration": 0.1, "fps": 30},
+    "materials": [{"name": "c", "density": 0.2, "stretch": 200, "shear": 40, "bend": 4, "damping": 1.0}],
+    "panels": [{"name": "p", "material": "c", "size": [0.3, 0.3], "resolution": [8, 8], "position": [0, 0.3, 0]}],
+    "pins": [{"panel": "p", "edge": "top"}],
+    "obstacles": [{"name": "box", "type": "box", "size": [0.2, 0.2, 0.2], "position": [0, 0.1, 0],
+                   "motion": {"velocity": [0.3, 0, 0]}}]})";
+  const Result r = run_cli("run " + (dir / "box.json").string() + " --out " + (dir / "out").string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(dir / "out" / "run.json");
+  const nlohmann::json run = nlohmann::json::parse(in);
+  const int steps = run["steps"], substeps = run["integrator"]["substeps"];
+  const uint64_t unconverged = run["integrator"]["unconverged_steps"];
+  ASSERT_GT(substeps, 1);
+  EXPECT_GT(unconverged, uint64_t(steps)) << "two sweeps seldom reach a tolerance of 1e-9 m: more solves than steps fail";
+  EXPECT_LE(unconverged, uint64_t(steps * substeps));
+  const std::string want = "the implicit integrator did not converge in " + std::to_string(unconverged) + " of " +
+                           std::to_string(steps * substeps) + " solves (" + std::to_string(steps) + " steps of " +
+                           std::to_string(substeps) + " substeps)";
+  EXPECT_NE(r.out.find(want), std::string::npos) << r.out;
+}

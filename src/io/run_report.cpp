@@ -150,9 +150,14 @@ nlohmann::json timing_json(const RunReport& r) {
 
 void warn_unconverged(const SceneDef& scene, Simulator& sim) {
   if (scene.time.integrator != Integrator::Implicit || sim.totals().unconverged == 0) return;
-  spdlog::warn("the implicit integrator did not converge in {} of {} steps: its last sweep still moved a vertex up to "
+  // Each substep is a solve of its own (run.json's integrator.unconverged_steps counts solves).
+  const uint64_t substeps = uint64_t(sim.substeps());
+  const std::string of = substeps > 1 ? fmt::format("{} solves ({} steps of {} substeps)", sim.steps() * substeps,
+                                                    sim.steps(), substeps)
+                                      : fmt::format("{} steps", sim.steps());
+  spdlog::warn("the implicit integrator did not converge in {} of {}: its last sweep still moved a vertex up to "
                "{:.3g} m (time.tolerance {:g} m); raise time.iterations or lower time.dt",
-               sim.totals().unconverged, sim.steps(), sim.totals().max_residual, scene.time.tolerance);
+               sim.totals().unconverged, of, sim.totals().max_residual, scene.time.tolerance);
 }
 
 void warn_open_seams(Simulator& sim, const RunReport& r) {
