@@ -171,6 +171,24 @@ const Piece& ClothModel::piece_of(uint32_t i) const {
   return pieces.front();
 }
 
+namespace {
+
+// CSR of a flat list of element corners (corner k at vertex corner[k]): offset[i] .. offset[i + 1]
+// index entry, the corners at vertex i in ascending order. Both empty when there are no corners.
+void corners_by_vertex(uint32_t n, const std::vector<uint32_t>& corner, std::vector<uint32_t>& offset,
+                       std::vector<uint32_t>& entry) {
+  offset.clear(), entry.clear();
+  if (corner.empty()) return;
+  offset.assign(n + 1, 0);
+  for (uint32_t v : corner) ++offset[v + 1];
+  for (uint32_t i = 0; i < n; ++i) offset[i + 1] += offset[i];
+  entry.resize(offset[n]);
+  std::vector<uint32_t> at(offset.begin(), offset.end() - 1);
+  for (uint32_t k = 0; k < corner.size(); ++k) entry[at[corner[k]]++] = k;
+}
+
+}  // namespace
+
 // Per-vertex adjacency (CSR) so that forces are gathered, never scattered.
 void build_adjacency(ClothModel& model) {
   model.spring_counts = {};
@@ -206,34 +224,16 @@ void build_adjacency(ClothModel& model) {
       if (model.sew_time > 0) model.adj_rest_start[slot] = sp.rest_start;
     }
   }
-  // Hinges: each corner's entry under its vertex (corners welded onto one vertex each keep theirs).
-  model.hinge_offset.clear(), model.hinge_entry.clear(), model.hinge_vertex.clear(), model.hinge_weight.clear();
-  if (!model.hinges.empty()) {
-    std::vector<uint32_t> count(n, 0);
-    for (const Hinge& h : model.hinges)
-      for (uint32_t v : h.v) ++count[v];
-    model.hinge_offset.assign(n + 1, 0);
-    for (uint32_t i = 0; i < n; ++i) model.hinge_offset[i + 1] = model.hinge_offset[i] + count[i];
-    model.hinge_entry.resize(model.hinge_offset[n]);
-    std::vector<uint32_t> at(model.hinge_offset.begin(), model.hinge_offset.end() - 1);
-    for (uint32_t h = 0; h < model.hinges.size(); ++h)
-      for (uint32_t r = 0; r < 4; ++r) {
-        model.hinge_entry[at[model.hinges[h].v[r]]++] = 4 * h + r;
-        model.hinge_vertex.push_back(model.hinges[h].v[r]);
-        model.hinge_weight.push_back(model.hinges[h].w[r]);
-      }
-  }
-  // Membranes: each corner's entry under its vertex.
-  model.membrane_offset.clear(), model.membrane_entry.clear();
-  if (model.num_membranes() > 0) {
-    std::vector<uint32_t> count(n, 0);
-    for (uint32_t v : model.membrane_vertex) ++count[v];
-    model.membrane_offset.assign(n + 1, 0);
-    for (uint32_t i = 0; i < n; ++i) model.membrane_offset[i + 1] = model.membrane_offset[i] + count[i];
-    model.membrane_entry.resize(model.membrane_offset[n]);
-    std::vector<uint32_t> at(model.membrane_offset.begin(), model.membrane_offset.end() - 1);
-    for (uint32_t k = 0; k < model.membrane_vertex.size(); ++k) model.membrane_entry[at[model.membrane_vertex[k]]++] = k;
-  }
+  // Hinges and membranes: each corner's entry (its index in the flat corner list) under its vertex
+  // (corners welded onto one vertex each keep theirs).
+  model.hinge_vertex.clear(), model.hinge_weight.clear();
+  for (const Hinge& h : model.hinges)
+    for (uint32_t r = 0; r < 4; ++r) {
+      model.hinge_vertex.push_back(h.v[r]);
+      model.hinge_weight.push_back(h.w[r]);
+    }
+  corners_by_vertex(n, model.hinge_vertex, model.hinge_offset, model.hinge_entry);
+  corners_by_vertex(n, model.membrane_vertex, model.membrane_offset, model.membrane_entry);
   color_vertices(model);
 }
 
