@@ -198,7 +198,6 @@ void add_panel(ClothModel& m, const SceneDef& s, size_t pi, const PanelMesh& pm)
       uint32_t a, b;
       double k;
       SpringType type;
-      double k_stiff = 0;
     };
     // Where a measured fabric's warp runs in the panel's rest shape.
     const Vec3 warp_dir = pd.shape == PanelShape::Mesh ? make_vec3(float(std::cos(warp)), 0.0f, float(-std::sin(warp)))
@@ -232,7 +231,7 @@ void add_panel(ClothModel& m, const SceneDef& s, size_t pi, const PanelMesh& pm)
                             ? std::min(bend_trace / stretch_trace, 0.5) : 0.0;
     if (hinges) add_hinges(warp_dir, pm.tris, 1.0);
     for (const Planned& sp : planned)
-      spring(sp.a, sp.b, float(sp.type == SpringType::Stretch ? sp.k * (1.0 - give) : sp.k), sp.type, float(sp.k_stiff * (1.0 - give)));
+      spring(sp.a, sp.b, float(sp.type == SpringType::Stretch ? sp.k * (1.0 - give) : sp.k), sp.type);
   }
   for (uint32_t i = 0; i < pm.size(); ++i) {
     m.inv_mass.push_back(1.0f / m.mass[base + i]);
