@@ -50,8 +50,9 @@ for s in $steps; do case $s in
              PICK='steps/s|stages per step|exact check' step "full_$(basename "$scene" .json)" 120 "$B/raycloth" run "$scene" --device cuda \
                -o "/tmp/full_$(basename "$scene" .json)"
            done ;;
-  sweeps) for it in ${SWEEPS:-60 100}; do  # the peers' implicit drape with more sweeps (.gpu/peers_itN.json)
-            TAILN=8 step "vs_bullet_$it" 120 "$B/raycloth_vs_bullet" --device cuda --scene ".gpu/peers_it$it.json" --no-bullet-self \
+  sweeps) for it in ${SWEEPS:-60 100}; do  # the peers' implicit drape with more sweeps (time.iterations)
+            sed "s/\"iterations\": 30/\"iterations\": $it/" bench/peers_drape_implicit.json > "/tmp/peers_it$it.json"
+            TAILN=8 step "vs_bullet_$it" 120 "$B/raycloth_vs_bullet" --device cuda --scene "/tmp/peers_it$it.json" --no-bullet-self \
               --no-blender --json "$out/vs_bullet_$it.json"
           done ;;
   garments) TAILN=30 step garments "${GARMENTS_LIMIT:-400}" "$B/raycloth" batch scenes/sweeps/garmentcode_all.json --out /tmp/garments \
