@@ -17,6 +17,7 @@ namespace raycloth {
   X(contact_moved, "moved_by_contact_solve", "contact") /* vertices the contact solve moved */               \
   X(contact_rounds, "contact_solve_rounds", "contact")  /* rounds of the position solve that found a pair to act on */ \
   X(bound_passes, "bound_passes", "contact")      /* further passes of the bound (run_bound_passes) */       \
+  X(overlap_exits, "pushed_out_of_overlaps", "contact") /* pushes that landed inside another part of a body and went out of every part instead */ \
   X(unconverged, "unconverged_steps", "integrator") /* 1 when the implicit solve's last sweep exceeded the tolerance */
 
 // The sums over a batch of steps, or over a run (Simulator::totals).

@@ -85,4 +85,121 @@ RC_HD float pinch_gap_along(const StepView& s, Vec3 from, Vec3 out, float reach,
   return hit.kind == kHitNone ? reach : hit.t;
 }
 
+// ---- Where the body's parts overlap ---------------------------------------------------------------
+// A skinned body passes into itself where it bends (his upper arm into his torso at the armpit): a
+// surface of one part then lies inside another, and a point pushed the thickness out of the nearest
+// face can still be inside the body. What is outside is read off rays: the obstacles' winding number
+// about p along a ray is the sum, over the faces the ray crosses, of +1 where it leaves through a
+// face's back and -1 where it enters through a front (the caps close the openings, sim/holes). A
+// ray through a shared edge may count a face twice, and an opening left open miscounts, so a point
+// is taken as inside only where at least two of three rays say so.
+
+// Counts one crossing of the ray along `dir` and rejects the face, so that the ray goes on through
+// every face to the end.
+struct CountCrossing {
+  const Vec3* vertices;
+  const uint32_t* indices;
+  Vec3 dir;
+  int* winding;
+  RC_HD bool operator()(uint32_t prim) const {
+    *winding += dot(triangle_normal(vertices, indices, prim), dir) > 0.0f ? 1 : -1;
+    return false;
+  }
+};
+
+// The obstacles' winding number about p read off the ray along `dir`.
+RC_HD int winding_along(const StepView& s, Vec3 p, Vec3 dir) {
+  int winding = 0;
+  Ray ray;
+  ray.org = p;
+  ray.dir = dir;
+  ray.tmax = 1e30f;
+  const CountCrossing count{s.geom.obstacle_vertices, s.geom.obstacle_indices, dir, &winding};
+  trace_nearest(s.obstacle_bvh, s.geom.obstacle_vertices, s.geom.obstacle_indices, ray, count, kHitObstacle);
+  return winding;
+}
+
+// Two directions of no particular axis, for the second and third rays.
+RC_HD Vec3 other_ray_direction(int k) {
+  return k == 0 ? make_vec3(0.5377f, 0.8315f, 0.1392f) : make_vec3(-0.6247f, -0.2914f, 0.7245f);
+}
+
+// Whether p is inside the obstacles (the union of the body's parts): two of three rays, the first
+// along `dir`, say so.
+RC_HD bool inside_parts(const StepView& s, Vec3 p, Vec3 dir) {
+  int inside = winding_along(s, p, dir) > 0 ? 1 : 0;
+  for (int k = 0; k < 2 && inside < 2 && inside + (2 - k) >= 2; ++k)
+    inside += winding_along(s, p, other_ray_direction(k)) > 0 ? 1 : 0;
+  return inside >= 2;
+}
+
+// The same for a push out of the nearest surface along `dir`: where the ray along the push leaves
+// every part (nearly every push) it is taken as outside at once, with one ray; otherwise one of the
+// two others must say inside too.
+RC_HD bool push_inside_parts(const StepView& s, Vec3 p, Vec3 dir) {
+  if (winding_along(s, p, dir) <= 0) return false;
+  return winding_along(s, p, other_ray_direction(0)) > 0 || winding_along(s, p, other_ray_direction(1)) > 0;
+}
+
+// How far (metres) a vertex pushed into another part of the body looks for the nearest way out, and
+// how many of the nearest candidates it tries.
+inline constexpr float kOverlapExitRadius = 0.05f;
+inline constexpr int kOverlapExitTries = 32;
+
+// A way out of the body where its parts overlap: the point `offset` in front of the face nearest to
+// p among those whose point there is outside every part.
+struct OverlapExit {
+  bool found = false;
+  uint32_t prim = 0;
+  Vec3 point;
+  Vec3 normal;
+  double wa = 1, wb = 0, wc = 0;
+};
+
+// The nearest way out of the body from p: each obstacle face within kOverlapExitRadius offers the
+// point `offset` in front of its point nearest to p; the kOverlapExitTries nearest offers are tried in
+// order of distance (ties: the lower face), and the first outside every part (inside_parts) is taken.
+RC_HD OverlapExit overlap_exit(const StepView& s, Vec3 p, float offset) {
+  const Vec3* ov = s.geom.obstacle_vertices;
+  const uint32_t* oi = s.geom.obstacle_indices;
+  const DVec3 dp = dvec(p);
+  uint32_t face[kOverlapExitTries] = {};
+  double dist2[kOverlapExitTries] = {};
+  TrianglePoint at[kOverlapExitTries];
+  int count = 0;
+  Aabb query = aabb_grow(point_box(p), kOverlapExitRadius + offset);
+  bvh_for_each_overlap(s.obstacle_bvh, query, [&](uint32_t t) {
+    const DVec3 a = dvec(ov[oi[3 * t]]), b = dvec(ov[oi[3 * t + 1]]), c = dvec(ov[oi[3 * t + 2]]);
+    const TrianglePoint q = closest_on_triangle(dp, a, b, c);
+    if (q.dist2 > double(kOverlapExitRadius) * double(kOverlapExitRadius)) return;
+    const DVec3 n = dvec(triangle_normal(ov, oi, t));
+    const DVec3 offer = a * q.wa + b * q.wb + c * q.wc + n * double(offset);
+    const double d2 = ddot(offer - dp, offer - dp);
+    int k = count < kOverlapExitTries ? count : kOverlapExitTries;
+    if (k == kOverlapExitTries && !(d2 < dist2[k - 1] || (d2 == dist2[k - 1] && t < face[k - 1]))) return;
+    if (k == kOverlapExitTries) --k;
+    for (; k > 0 && (d2 < dist2[k - 1] || (d2 == dist2[k - 1] && t < face[k - 1])); --k) {
+      face[k] = face[k - 1], dist2[k] = dist2[k - 1], at[k] = at[k - 1];
+    }
+    face[k] = t, dist2[k] = d2, at[k] = q;
+    if (count < kOverlapExitTries) ++count;
+  });
+  OverlapExit e;
+  for (int k = 0; k < count; ++k) {
+    const uint32_t t = face[k];
+    const DVec3 a = dvec(ov[oi[3 * t]]), b = dvec(ov[oi[3 * t + 1]]), c = dvec(ov[oi[3 * t + 2]]);
+    const Vec3 n = triangle_normal(ov, oi, t);
+    const DVec3 o = a * at[k].wa + b * at[k].wb + c * at[k].wc + dvec(n) * double(offset);
+    const Vec3 offer = make_vec3(float(o.x), float(o.y), float(o.z));
+    if (inside_parts(s, offer, n)) continue;
+    e.found = true;
+    e.prim = t;
+    e.point = offer;
+    e.normal = n;
+    e.wa = at[k].wa, e.wb = at[k].wb, e.wc = at[k].wc;
+    break;
+  }
+  return e;
+}
+
 }  // namespace raycloth

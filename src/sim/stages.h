@@ -125,6 +125,21 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
           const float gap = pinch_gap_along(s, from, out, offset, q.prim);
           if (gap < offset && gap >= kPinchMinGap) xn = from + out * (0.5f * gap);
         }
+        // Where the body passes into itself (his upper arm into his torso), the nearest surface can
+        // lie inside another part, and so can the point in front of it: the vertex goes to the
+        // nearest point in front of a face that is outside every part (obstacle_query.h), and is
+        // left where the push put it if none is within reach.
+        if (push_inside_parts(s, xn, out)) {
+          const OverlapExit e = overlap_exit(s, before, offset);
+          if (e.found) {
+            xn = e.point;
+            out = e.normal;
+            q.prim = e.prim, q.wa = e.wa, q.wb = e.wb, q.wc = e.wc;
+            t = s.geom.obstacle_indices + 3 * e.prim;
+            under = true;
+            atomic_fetch_add_u32(&s.counters->overlap_exits, 1u);
+          }
+        }
         Vec3 u = make_vec3(0, 0, 0);
         if (s.geom.obstacle_velocities) {
           const Vec3* ovel = s.geom.obstacle_velocities;
