@@ -445,8 +445,8 @@ vertices_inside, vertices_pinched, min_pinch_gap, pairs_tested, vertices_tested,
           R"(The step's counters so far, as run.json's "contact" names them: hits (cloth vertices with an
 entry in the collision buffer in the last step), pushed_by_obstacles, clamped_by_bound,
 obstacle_conflicts, push_shortened_by_bound, bound_refreshes, bound_partial_refreshes,
-cloth_contact_pairs, moved_by_contact_solve, contact_solve_rounds, bound_passes (sums over all
-steps), unconverged_steps and max_residual (the implicit integrator), max_obstacle_move (the largest
+cloth_contact_pairs, moved_by_contact_solve, contact_solve_rounds, bound_passes,
+pushed_out_of_overlaps (sums over all steps), unconverged_steps and max_residual (the implicit integrator), max_obstacle_move (the largest
 move of an obstacle vertex in one step, metres), and stage_seconds (wall-clock seconds per stage).)")
       .def("__repr__", [](PySimulator& p) {
         return "<raycloth.Simulator '" + p.sim->scene().name + "' on " + p.sim->device() + ": " +

@@ -90,9 +90,11 @@ RC_HD float pinch_gap_along(const StepView& s, Vec3 from, Vec3 out, float reach,
 // surface of one part then lies inside another, and a point pushed the thickness out of the nearest
 // face can still be inside the body. What is outside is read off rays: the obstacles' winding number
 // about p along a ray is the sum, over the faces the ray crosses, of +1 where it leaves through a
-// face's back and -1 where it enters through a front (the caps close the openings, sim/holes). A
-// ray through a shared edge may count a face twice, and an opening left open miscounts, so a point
-// is taken as inside only where at least two of three rays say so.
+// face's back and -1 where it enters through a front (the caps close the openings, sim/holes). It is
+// 0 outside every part; inside, +1 or more, or -1 in a pocket where a part folds through itself
+// inside out (his shirt at his hip): inside too, as for the exact check (|w| >= 1/2). A ray through
+// a shared edge may count a face twice, and an opening left open miscounts, so a point is taken as
+// inside only where at least two of three rays say so.
 
 // Counts one crossing of the ray along `dir` and rejects the face, so that the ray goes on through
 // every face to the end.
@@ -127,9 +129,9 @@ RC_HD Vec3 other_ray_direction(int k) {
 // Whether p is inside the obstacles (the union of the body's parts): two of three rays, the first
 // along `dir`, say so.
 RC_HD bool inside_parts(const StepView& s, Vec3 p, Vec3 dir) {
-  int inside = winding_along(s, p, dir) > 0 ? 1 : 0;
+  int inside = winding_along(s, p, dir) != 0 ? 1 : 0;
   for (int k = 0; k < 2 && inside < 2 && inside + (2 - k) >= 2; ++k)
-    inside += winding_along(s, p, other_ray_direction(k)) > 0 ? 1 : 0;
+    inside += winding_along(s, p, other_ray_direction(k)) != 0 ? 1 : 0;
   return inside >= 2;
 }
 
@@ -137,8 +139,8 @@ RC_HD bool inside_parts(const StepView& s, Vec3 p, Vec3 dir) {
 // every part (nearly every push) it is taken as outside at once, with one ray; otherwise one of the
 // two others must say inside too.
 RC_HD bool push_inside_parts(const StepView& s, Vec3 p, Vec3 dir) {
-  if (winding_along(s, p, dir) <= 0) return false;
-  return winding_along(s, p, other_ray_direction(0)) > 0 || winding_along(s, p, other_ray_direction(1)) > 0;
+  if (winding_along(s, p, dir) == 0) return false;
+  return winding_along(s, p, other_ray_direction(0)) != 0 || winding_along(s, p, other_ray_direction(1)) != 0;
 }
 
 // How far (metres) a vertex pushed into another part of the body looks for the nearest way out, and
