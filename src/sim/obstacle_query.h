@@ -165,40 +165,40 @@ RC_HD OverlapExit overlap_exit(const StepView& s, Vec3 p, float offset) {
   const Vec3* ov = s.geom.obstacle_vertices;
   const uint32_t* oi = s.geom.obstacle_indices;
   const DVec3 dp = dvec(p);
+  // The nearest offers so far, nearest first (a face and its offer's squared distance): a few
+  // hundred bytes, so that the GPU's per-thread stack stays small; the points are found again below.
   uint32_t face[kOverlapExitTries] = {};
   double dist2[kOverlapExitTries] = {};
-  TrianglePoint at[kOverlapExitTries];
   int count = 0;
+  auto offer_of = [&](uint32_t t, TrianglePoint& q) {
+    const DVec3 a = dvec(ov[oi[3 * t]]), b = dvec(ov[oi[3 * t + 1]]), c = dvec(ov[oi[3 * t + 2]]);
+    q = closest_on_triangle(dp, a, b, c);
+    return a * q.wa + b * q.wb + c * q.wc + dvec(triangle_normal(ov, oi, t)) * double(offset);
+  };
   Aabb query = aabb_grow(point_box(p), kOverlapExitRadius + offset);
   bvh_for_each_overlap(s.obstacle_bvh, query, [&](uint32_t t) {
-    const DVec3 a = dvec(ov[oi[3 * t]]), b = dvec(ov[oi[3 * t + 1]]), c = dvec(ov[oi[3 * t + 2]]);
-    const TrianglePoint q = closest_on_triangle(dp, a, b, c);
+    TrianglePoint q;
+    const DVec3 offer = offer_of(t, q);
     if (q.dist2 > double(kOverlapExitRadius) * double(kOverlapExitRadius)) return;
-    const DVec3 n = dvec(triangle_normal(ov, oi, t));
-    const DVec3 offer = a * q.wa + b * q.wb + c * q.wc + n * double(offset);
     const double d2 = ddot(offer - dp, offer - dp);
-    int k = count < kOverlapExitTries ? count : kOverlapExitTries;
-    if (k == kOverlapExitTries && !(d2 < dist2[k - 1] || (d2 == dist2[k - 1] && t < face[k - 1]))) return;
-    if (k == kOverlapExitTries) --k;
-    for (; k > 0 && (d2 < dist2[k - 1] || (d2 == dist2[k - 1] && t < face[k - 1])); --k) {
-      face[k] = face[k - 1], dist2[k] = dist2[k - 1], at[k] = at[k - 1];
-    }
-    face[k] = t, dist2[k] = d2, at[k] = q;
-    if (count < kOverlapExitTries) ++count;
+    auto nearer = [&](int k) { return d2 < dist2[k] || (d2 == dist2[k] && t < face[k]); };
+    if (count == kOverlapExitTries && !nearer(kOverlapExitTries - 1)) return;
+    int k = count < kOverlapExitTries ? count++ : kOverlapExitTries - 1;
+    for (; k > 0 && nearer(k - 1); --k) face[k] = face[k - 1], dist2[k] = dist2[k - 1];
+    face[k] = t, dist2[k] = d2;
   });
   OverlapExit e;
   for (int k = 0; k < count; ++k) {
-    const uint32_t t = face[k];
-    const DVec3 a = dvec(ov[oi[3 * t]]), b = dvec(ov[oi[3 * t + 1]]), c = dvec(ov[oi[3 * t + 2]]);
-    const Vec3 n = triangle_normal(ov, oi, t);
-    const DVec3 o = a * at[k].wa + b * at[k].wb + c * at[k].wc + dvec(n) * double(offset);
+    TrianglePoint q;
+    const DVec3 o = offer_of(face[k], q);
     const Vec3 offer = make_vec3(float(o.x), float(o.y), float(o.z));
+    const Vec3 n = triangle_normal(ov, oi, face[k]);
     if (inside_parts(s, offer, n)) continue;
     e.found = true;
-    e.prim = t;
+    e.prim = face[k];
     e.point = offer;
     e.normal = n;
-    e.wa = at[k].wa, e.wb = at[k].wb, e.wc = at[k].wc;
+    e.wa = q.wa, e.wb = q.wb, e.wc = q.wc;
     break;
   }
   return e;
