@@ -86,7 +86,7 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
       if (!near && q.num_under == 0) s.clearance[i] = float(dist) - offset;
       if (near || q.num_under > 0) {
         const Vec3 before = xn;
-        bool pushed = near, under = false;
+        bool pushed = near, under = false, overlapped = false;
         if (near) {
           const Vec3 surface = make_vec3(float(q.point.x), float(q.point.y), float(q.point.z));
           xn = surface + out * offset;
@@ -136,7 +136,7 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
             out = e.normal;
             q.prim = e.prim, q.wa = e.wa, q.wb = e.wb, q.wc = e.wc;
             t = s.geom.obstacle_indices + 3 * e.prim;
-            under = true;
+            overlapped = true;
             atomic_fetch_add_u32(&s.counters->overlap_exits, 1u);
           }
         }
@@ -149,7 +149,7 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
         s.contact_normal[i] = out;
         // Inside, or pushed more than a tenth of the thickness by a surface moving into the cloth
         // (not cloth falling onto or resting on a body): the bound is refreshed at once if it holds it.
-        const bool hard = inside || under || (dot(u, out) > 0.0f && length(xn - before) > 0.1f * s.coll.thickness);
+        const bool hard = inside || under || overlapped || (dot(u, out) > 0.0f && length(xn - before) > 0.1f * s.coll.thickness);
         s.flags[i] |= hard ? (kFlagPushed | kFlagInside) : kFlagPushed;
         if (s.contacts[i].w < 0.0f) {
           s.contacts[i].normal = out;
