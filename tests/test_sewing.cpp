@@ -88,6 +88,45 @@ std::string body_scene(const std::string& garment_extra) {
 
 const std::vector<std::array<float, 4>> kBody = {{0.2f, 0.12f, 0.0f, 1.45f}, {0.05f, 0.05f, 1.45f, 1.6f}, {0.1f, 0.1f, 1.6f, 1.75f}};
 
+// A body standing with its feet apart: two legs (0.12 m across, 0.08 m deep, their outer sides 0.23 m
+// out) up to 0.8 m under a narrow torso, neck and head, facing +z.
+const float kLegOuter = 0.23f;
+std::string legs_apart_obj() {
+  std::string s = boxes_obj({{0.12f, 0.08f, 0.8f, 1.45f}, {0.05f, 0.05f, 1.45f, 1.6f}, {0.1f, 0.1f, 1.6f, 1.75f}});
+  int base = 25;
+  for (float cx : {-0.17f, 0.17f}) {
+    for (int k = 0; k < 8; ++k)
+      s += fmt::format("v {} {} {}\n", cx + ((k & 1) ? 0.06f : -0.06f), (k & 2) ? 0.8f : 0.0f, (k & 4) ? 0.04f : -0.04f);
+    const int f[12][3] = {{0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}, {0, 1, 5}, {0, 5, 4},
+                          {2, 6, 7}, {2, 7, 3}, {0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}};
+    for (const auto& t : f) s += fmt::format("f {} {} {}\n", base + t[0], base + t[1], base + t[2]);
+    base += 8;
+  }
+  return s;
+}
+
+// A straight skirt of two 46 x 50 cm panels 20 cm in front of and behind the middle, its top at
+// GarmentCode's waist, sewn at both sides: its sides do not clear the legs (0.92 m around them: 1.08 m).
+std::string straight_skirt() {
+  const std::string sq = R"("vertices": [[-23, 0], [23, 0], [23, 50], [-23, 50]],
+    "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}])";
+  return R"({"pattern": {"panels": {
+    "front": {"translation": [0, 58.8, 20], "rotation": [0, 0, 0], )" + sq + R"(},
+    "back": {"translation": [0, 58.8, -20], "rotation": [0, 180, 0], )" + sq + R"(}},
+    "stitches": [[{"panel": "front", "edge": 1}, {"panel": "back", "edge": 3}],
+                 [{"panel": "front", "edge": 3}, {"panel": "back", "edge": 1}]]},
+    "properties": {"units_in_meter": 100, "curvature_coords": "relative"}})";
+}
+
+// Whether the segment a-b passes through one of the legs (sampled every 2 mm).
+bool through_a_leg(Vec3 a, Vec3 b) {
+  for (int k = 0; k <= 200; ++k) {
+    const Vec3 p = a + (b - a) * (float(k) / 200.0f);
+    if (p.y < 0.8f && std::abs(p.z) < 0.04f && std::abs(std::abs(p.x) - 0.17f) < 0.06f) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 TEST(Sewing, StitchesCloseTwoPanelsPlacedTenCentimetresApartWithoutCrossing) {
@@ -326,6 +365,58 @@ TEST(GarmentFit, TwoPanelsThatCrossOnceClearOfTheBodyAreParted) {
   }
   EXPECT_GT(moved, 0.0f);
   EXPECT_NO_THROW(Simulator sim(s));
+}
+
+TEST(GarmentFit, ASkirtNarrowerThanTheLegsStanceIsWrappedAroundThem) {
+  // Placed flat, its sides stand in front of and behind the legs: the stitches between them run
+  // through the legs. Wrapped around the legs' hull, stretched to reach its sides, they do not.
+  const fs::path d = temp_dir("stance");
+  write(d / "body.obj", legs_apart_obj());
+  write(d / "g.json", straight_skirt());
+  const SceneDef s = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
+  ClothModel m = build_cloth_model(s);
+  const ObstacleSet o = build_obstacles(s);
+  const std::vector<PanelFit> fits = fit_garments(m, o, s);
+  ASSERT_EQ(fits.size(), 2u);
+  for (const PanelFit& f : fits) {
+    EXPECT_GT(f.stretched, 1.05f) << f.panel;
+    EXPECT_LE(f.stretched, float(kMaxStanceWiden) + 1e-6f) << f.panel;
+  }
+  size_t low = 0;
+  for (size_t k = 0; k < m.stitch_seam.size(); ++k) {
+    const Vec3 a = m.initial_positions[m.stitches[2 * k]], b = m.initial_positions[m.stitches[2 * k + 1]];
+    low += a.y < 0.8f;
+    EXPECT_FALSE(through_a_leg(a, b)) << "stitch " << k << " at y " << a.y;
+  }
+  EXPECT_GT(low, 3u);  // stitches beside the legs, not only above them
+  EXPECT_NO_THROW(Simulator sim(s));
+  fs::remove_all(d);
+}
+
+TEST(GarmentFit, AWrappedSkirtIsSewnAroundBothLegs) {
+  // The skirt above, sewn: every stitch closes outside the legs (none between them), and no checked
+  // step has a crossing or a vertex inside the body.
+  const fs::path d = temp_dir("stance_sewn");
+  write(d / "body.obj", legs_apart_obj());
+  write(d / "g.json", straight_skirt());
+  std::string text = body_scene(", \"body\": \"body\"");
+  const std::string edge = "\"edge_length\": 0.04";
+  text.replace(text.find(edge), edge.size(), "\"edge_length\": 0.05");
+  SceneDef s = parse_scene(text, (d / "scene.json").string());
+  s.gravity = {0, 0, 0};
+  Simulator sim(s);
+  const ClothModel& m = sim.model();
+  ASSERT_EQ(test::step_checked(sim, 3000, 20), "");  // 0.6 s: the close time and 0.3 s more
+  // Drawn together: every stitch within two close tolerances (most welded; beside the legs the
+  // skirt, 17 % short of their girth, pulls a few back to 4 to 6 mm, where their pull balances it).
+  const float tol = seam_close_tolerance(s);
+  EXPECT_LE(largest_stitch_gap(m, sim.positions()), 2.0f * tol);
+  EXPECT_GE(sim.stitches_welded(), m.stitch_seam.size() * 2 / 3);
+  for (size_t k = 0; k < m.stitch_seam.size(); ++k) {
+    const Vec3 a = sim.positions()[m.stitches[2 * k]];
+    if (a.y < 0.78f) EXPECT_GT(std::abs(a.x), kLegOuter - 0.01f) << "stitch " << k << " closed between the legs";
+  }
+  fs::remove_all(d);
 }
 
 TEST(GarmentFit, BadGarmentsAreRefusedWordForWord) {

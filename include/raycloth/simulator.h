@@ -85,9 +85,12 @@ class Simulator {
   bool dt_from_mesh() const { return dt_from_mesh_; }
   // Garments placed on a body (SceneDef::garment_fits): how far each of their panels was moved along
   // its normal to clear the body at the start (sim/garment_fit.h), in the scene's panel order.
+  // How the fit placed each panel of a garment on a body (sim/garment_fit.h): metres along its
+  // normal, and the largest factor it was stretched by to reach around the legs (1: not).
   struct PanelMove {
     std::string panel;
     float moved = 0;
+    float stretched = 1;
   };
   const std::vector<PanelMove>& panel_moves() const { return panel_moves_; }
   // Stitches (seams sewn from apart) welded into one vertex so far: every kWeldCheckTime, each

@@ -1,5 +1,7 @@
 #include "sim/garment_fit.h"
 
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/convex_hull_2.h>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -17,6 +19,7 @@ namespace raycloth {
 namespace {
 
 const Vec3 kUp = make_vec3(0, 1, 0);
+using Point2 = CGAL::Exact_predicates_inexact_constructions_kernel::Point_2;
 
 // Where a horizontal plane cuts a body: the extent of the cut across (side) and along (front).
 struct Section {
@@ -52,6 +55,56 @@ Section section(const Body& b, double h, const BodyFrame& f) {
       s.front_lo = std::min(s.front_lo, front), s.front_hi = std::max(s.front_hi, front);
     }
   return s;
+}
+
+// The body's cut by the horizontal plane at height h, seen from above: a segment, (side, front) at
+// each end, per triangle the plane cuts; and the cut's pieces as seen from the front (the segments'
+// extents across, merged where they touch), lowest side first.
+struct Cut {
+  std::vector<std::array<Point2, 2>> segments;
+  std::vector<std::pair<double, double>> pieces;
+};
+
+Cut cut_at(const Body& b, double h, const BodyFrame& f) {
+  Cut cut;
+  const std::vector<Vec3>& x = *b.x;
+  for (size_t t = 0; t < b.tris.size(); t += 3) {
+    Point2 ends[2];
+    int n = 0;
+    for (int k = 0; k < 3 && n < 2; ++k) {
+      const Vec3 p = x[b.tris[t + k]], q = x[b.tris[t + (k + 1) % 3]];
+      if ((double(p.y) - h) * (double(q.y) - h) > 0 || p.y == q.y) continue;
+      const float u = float((h - double(p.y)) / (double(q.y) - double(p.y)));
+      const Vec3 c = p + (q - p) * u;
+      ends[n++] = Point2(double(dot(c, f.side)), double(dot(c, f.front)));
+    }
+    if (n == 2) cut.segments.push_back({ends[0], ends[1]});
+  }
+  std::vector<std::pair<double, double>> spans;
+  for (const auto& c : cut.segments) spans.emplace_back(std::min(c[0].x(), c[1].x()), std::max(c[0].x(), c[1].x()));
+  std::sort(spans.begin(), spans.end());
+  for (const auto& sp : spans)
+    if (!cut.pieces.empty() && sp.first <= cut.pieces.back().second + 1e-3)
+      cut.pieces.back().second = std::max(cut.pieces.back().second, sp.second);
+    else
+      cut.pieces.push_back(sp);
+  return cut;
+}
+
+// Where the body stands on two legs at height h: the outer sides of the two pieces of its cut on
+// either side of a gap across `mid` (metres along the body's side). None where the cut is one piece
+// there (the torso, the hips), or empty.
+struct Stance {
+  bool legs = false;
+  double lo = 0, hi = 0;
+};
+
+Stance stance(const Body& b, double h, const BodyFrame& f, double mid) {
+  const std::vector<std::pair<double, double>> pieces = cut_at(b, h, f).pieces;
+  Stance st;
+  for (size_t i = 0; i + 1 < pieces.size(); ++i)
+    if (pieces[i].second < mid && pieces[i + 1].first > mid) st.legs = true, st.lo = pieces[i].first, st.hi = pieces[i + 1].second;
+  return st;
 }
 
 // A uniform grid of the body's triangles (each in every cell its box, grown by `margin`, touches).
@@ -146,6 +199,249 @@ Vec3 panel_geometry(const ClothModel& m, const Piece& piece, std::vector<uint32_
     normal += cross(m.initial_positions[b] - m.initial_positions[a], m.initial_positions[c] - m.initial_positions[a]);
   }
   return length(normal) > 0 ? normal / length(normal) : kUp;
+}
+
+// The body's cut at height h, seen from above, (side, front) per point, kept to its central pieces:
+// the one across `mid`, or the two either side of a gap across it (the legs); not the arms.
+std::vector<Point2> central_cut(const Body& b, double h, const BodyFrame& f, double mid) {
+  const Cut cut = cut_at(b, h, f);
+  double lo = INFINITY, hi = -INFINITY;
+  for (size_t i = 0; i < cut.pieces.size(); ++i) {
+    const auto& p = cut.pieces[i];
+    if (p.first <= mid && p.second >= mid) lo = p.first, hi = p.second;
+    if (i + 1 < cut.pieces.size() && p.second < mid && cut.pieces[i + 1].first > mid) lo = p.first, hi = cut.pieces[i + 1].second;
+  }
+  std::vector<Point2> pts;
+  for (const auto& c : cut.segments)
+    for (const Point2& p : c)
+      if (p.x() >= lo && p.x() <= hi) pts.push_back(p);
+  return pts;
+}
+
+// One half of a body's hull at a height (its front or its back), grown by a margin, from its lowest
+// side to its highest: a polyline with arc lengths measured from where it crosses `mid`.
+struct HullHalf {
+  std::vector<Point2> pts;
+  std::vector<double> arc;  // signed arc length from the middle, increasing along pts
+  Point2 centre;
+  bool empty() const { return pts.size() < 2; }
+  double length_left() const { return -arc.front(); }
+  double length_right() const { return arc.back(); }
+  // The point at signed arc length a, the whole half scaled by k about the hull's centre.
+  Point2 at(double a, double k) const {
+    a = std::clamp(a, arc.front(), arc.back());
+    size_t i = size_t(std::upper_bound(arc.begin(), arc.end(), a) - arc.begin());
+    i = std::clamp<size_t>(i, 1, pts.size() - 1);
+    const double t = arc[i] > arc[i - 1] ? (a - arc[i - 1]) / (arc[i] - arc[i - 1]) : 0.0;
+    const double px = pts[i - 1].x() + t * (pts[i].x() - pts[i - 1].x()), py = pts[i - 1].y() + t * (pts[i].y() - pts[i - 1].y());
+    return Point2(centre.x() + k * (px - centre.x()), centre.y() + k * (py - centre.y()));
+  }
+};
+
+HullHalf hull_half(std::vector<Point2> pts, bool front, double mid, double margin) {
+  HullHalf half;
+  std::vector<Point2> hull;
+  CGAL::convex_hull_2(pts.begin(), pts.end(), std::back_inserter(hull));  // counter-clockwise
+  const size_t n = hull.size();
+  if (n < 3) return half;
+  double cx = 0, cy = 0;
+  for (const Point2& p : hull) cx += p.x(), cy += p.y();
+  half.centre = Point2(cx / double(n), cy / double(n));
+  // Grown: each corner out along the mean of its two edges' outward normals.
+  std::vector<Point2> grown(n);
+  for (size_t i = 0; i < n; ++i) {
+    const Point2 &a = hull[(i + n - 1) % n], &p = hull[i], &b = hull[(i + 1) % n];
+    auto normal = [](const Point2& u, const Point2& v) {
+      const double dx = v.x() - u.x(), dy = v.y() - u.y(), l = std::hypot(dx, dy);
+      return std::array<double, 2>{dy / l, -dx / l};  // outward for a counter-clockwise polygon
+    };
+    const auto n1 = normal(a, p), n2 = normal(p, b);
+    double mx = n1[0] + n2[0], my = n1[1] + n2[1];
+    const double ml = std::hypot(mx, my);
+    if (ml > 1e-12) mx /= ml, my /= ml;
+    grown[i] = Point2(p.x() + margin * mx, p.y() + margin * my);
+  }
+  // Split where the line through the centre, across the body, cuts it: the front half runs from that
+  // cut's low side to its high side through the points in front of the centre, the back half through
+  // those behind (counter-clockwise in (side, front), the front follows the high side's cut).
+  const double line = half.centre.y();
+  std::vector<std::pair<size_t, Point2>> cuts;  // after corner i, the point where the line crosses
+  for (size_t i = 0; i < n; ++i) {
+    const Point2 &a = grown[i], &b = grown[(i + 1) % n];
+    if ((a.y() - line) * (b.y() - line) < 0 || (a.y() == line && b.y() != line)) {
+      const double t = (line - a.y()) / (b.y() - a.y());
+      cuts.emplace_back(i, Point2(a.x() + t * (b.x() - a.x()), line));
+    }
+  }
+  if (cuts.size() != 2) return half;
+  if (cuts[0].second.x() > cuts[1].second.x()) std::swap(cuts[0], cuts[1]);
+  const auto& [lo_i, lo_p] = cuts[0];
+  const auto& [hi_i, hi_p] = cuts[1];
+  std::vector<Point2> chain;
+  if (front) {  // hi -> corners hi_i+1 .. lo_i -> lo, then reversed
+    chain.push_back(hi_p);
+    for (size_t i = (hi_i + 1) % n;; i = (i + 1) % n) {
+      chain.push_back(grown[i]);
+      if (i == lo_i) break;
+    }
+    chain.push_back(lo_p);
+    std::reverse(chain.begin(), chain.end());
+  } else {  // lo -> corners lo_i+1 .. hi_i -> hi
+    chain.push_back(lo_p);
+    for (size_t i = (lo_i + 1) % n;; i = (i + 1) % n) {
+      chain.push_back(grown[i]);
+      if (i == hi_i) break;
+    }
+    chain.push_back(hi_p);
+  }
+  std::vector<double> arc(chain.size(), 0.0);
+  for (size_t i = 1; i < chain.size(); ++i)
+    arc[i] = arc[i - 1] + std::hypot(chain[i].x() - chain[i - 1].x(), chain[i].y() - chain[i - 1].y());
+  // Arc length where the chain crosses the middle.
+  double at_mid = 0;
+  for (size_t i = 1; i < chain.size(); ++i)
+    if (chain[i - 1].x() <= mid && chain[i].x() >= mid) {
+      const double dx = chain[i].x() - chain[i - 1].x();
+      at_mid = arc[i - 1] + (dx > 0 ? (mid - chain[i - 1].x()) / dx : 0.0) * (arc[i] - arc[i - 1]);
+      break;
+    }
+  for (double& a : arc) a -= at_mid;
+  half.pts = std::move(chain), half.arc = std::move(arc);
+  return half;
+}
+
+// Panels that hang in front of or behind the legs and are narrower than the stance there (a pencil
+// skirt on a body standing with its feet apart) start with their sides in front of and behind a
+// leg: the stitch between a front and a back panel runs through the leg, and the panels, drawn
+// together, close between the legs, or not at all. Each such panel is wrapped, height by height,
+// around the front (or the back) of the body's hull there (its central pieces: the hips, or both
+// legs, not the arms), grown by `margin`: its sides end kWrapGap short of the hull's sides, where
+// the other panel's sides end, so the stitches start short and outside the legs. Where the panel is
+// narrower than that it starts stretched (at most kMaxStanceWiden; its rest lengths ease from the
+// stretched ones to the pattern's as the seams close, as every spring's do); where wider, the hull is
+// scaled up to fit it. Returns the largest stretch per panel (1 where not wrapped).
+template <class Panels>
+std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Body& body, const BodyFrame& f,
+                                   double mid, double front_mid, float margin) {
+  const double bin = 0.01;  // metres of height
+  std::unordered_map<int64_t, Stance> stances;
+  auto key_of = [&](double y) { return int64_t(std::floor((y - f.floor) / bin)); };
+  auto height = [&](int64_t k) { return f.floor + (double(k) + 0.5) * bin; };
+  auto stance_at = [&](int64_t k) -> const Stance& {
+    auto it = stances.find(k);
+    if (it == stances.end()) it = stances.emplace(k, stance(body, height(k), f, mid)).first;
+    return it->second;
+  };
+  // A panel's vertices and its extent either side of the middle per bin of height.
+  struct Rows {
+    std::vector<uint32_t> pv;
+    std::unordered_map<int64_t, std::pair<double, double>> extent;
+    bool front = false;
+    double depth = 0;  // mean distance in front of (behind) the body's middle
+    std::pair<double, double> row(int64_t k) const {  // the extent within two bins of k
+      double lo = INFINITY, hi = -INFINITY;
+      for (int64_t j = k - 2; j <= k + 2; ++j)
+        if (auto it = extent.find(j); it != extent.end()) lo = std::min(lo, it->second.first), hi = std::max(hi, it->second.second);
+      return {lo, hi};
+    }
+  };
+  std::vector<float> stretched(panels.size(), 1.0f);
+  std::vector<std::pair<size_t, Rows>> wrapped;  // (index into panels, rows)
+  for (size_t n = 0; n < panels.size(); ++n) {
+    Rows r;
+    std::vector<uint32_t> pt;
+    const Vec3 normal = panel_geometry(m, m.pieces[panels[n]], r.pv, pt);
+    if (std::fabs(dot(normal, f.front)) < 0.7f) continue;
+    double front_sum = 0;
+    for (uint32_t i : r.pv) {
+      const double s = double(dot(m.initial_positions[i], f.side)) - mid;
+      front_sum += double(dot(m.initial_positions[i], f.front));
+      auto [it, fresh] = r.extent.try_emplace(key_of(double(m.initial_positions[i].y)), s, s);
+      it->second.first = std::min(it->second.first, s), it->second.second = std::max(it->second.second, s);
+    }
+    // Wrapped where its whole rows (at least 0.8 of its median width on the legs: not where a curved
+    // hem or waist leaves a short one) do not clear the legs' outer sides by the margin, over
+    // kNarrowHeight of height at least.
+    std::vector<double> widths;
+    for (const auto& [k, e] : r.extent)
+      if (stance_at(k).legs) widths.push_back(e.second - e.first);
+    if (widths.empty()) continue;
+    std::nth_element(widths.begin(), widths.begin() + widths.size() / 2, widths.end());
+    const double median_width = widths[widths.size() / 2];
+    size_t narrow_rows = 0;
+    for (const auto& [k, e] : r.extent) {
+      const Stance& st = stance_at(k);
+      if (!st.legs || e.second - e.first < 0.8 * median_width) continue;
+      const auto [lo, hi] = r.row(k);
+      const double out_hi = st.hi - mid, out_lo = st.lo - mid;
+      if ((hi > 0.5 * out_hi && hi < out_hi + margin) || (lo < 0.5 * out_lo && lo > out_lo - margin)) ++narrow_rows;
+    }
+    if (double(narrow_rows) * bin < kNarrowHeight) continue;
+    const double mean_front = front_sum / double(r.pv.size());
+    r.front = mean_front > front_mid, r.depth = std::fabs(mean_front - front_mid);
+    wrapped.emplace_back(n, std::move(r));
+  }
+  // Layers keep their order: on each side, a panel placed farther out is wrapped kWrapLayer farther
+  // out than the one inside it.
+  for (auto& [n, r] : wrapped) {
+    size_t inside = 0;
+    for (const auto& [n2, r2] : wrapped) inside += r2.front == r.front && r2.depth < r.depth;
+    const float grow = margin + float(inside * kWrapLayer);
+    std::unordered_map<int64_t, HullHalf> halves;
+    std::vector<Vec3> moved(r.pv.size());
+    float most = 1.0f;
+    for (size_t v = 0; v < r.pv.size(); ++v) {
+      const Vec3 x = m.initial_positions[r.pv[v]];
+      moved[v] = x;
+      // Rows below the body's feet are laid on the hull of its lowest rows.
+      const int64_t k = std::max<int64_t>(key_of(double(x.y)), 2);
+      auto it = halves.find(k);
+      if (it == halves.end()) {
+        // The hull of the cuts within two bins, so that it changes smoothly from row to row.
+        std::vector<Point2> cut;
+        for (int64_t j = k - 2; j <= k + 2; ++j) {
+          const std::vector<Point2> c = central_cut(body, height(j), f, mid);
+          cut.insert(cut.end(), c.begin(), c.end());
+        }
+        it = halves.emplace(k, hull_half(std::move(cut), r.front, mid, grow)).first;
+      }
+      const HullHalf& half = it->second;
+      if (half.empty()) continue;
+      const auto [lo, hi] = r.row(key_of(double(x.y)));
+      const double room_r = half.length_right() - kWrapGap, room_l = half.length_left() - kWrapGap;
+      // Only a panel across the middle (a pant leg's, from near the middle to one side, is not).
+      if (!(room_r > 0 && room_l > 0 && hi > 0 && lo < 0)) continue;
+      // Scaled up where the panel is wider than the half; else stretched to reach its sides.
+      const double scale = std::max({1.0, hi / room_r, -lo / room_l});
+      const double s = double(dot(x, f.side)) - mid;
+      const double reach = s >= 0 ? room_r * scale / hi : room_l * scale / -lo;  // arc per metre of panel
+      // Stretched only where the body stands on two legs; above, a row narrower than the hull's
+      // half (a waist's curve) is laid on it as it is.
+      const double factor = std::min(reach, stance_at(k).legs ? double(kMaxStanceWiden) : 1.0);
+      const Point2 q = half.at(s * factor / scale, scale);
+      moved[v] = f.side * float(q.x()) + f.front * float(q.y()) + kUp * x.y;
+      most = std::max(most, float(factor));
+    }
+    for (size_t v = 0; v < r.pv.size(); ++v) m.initial_positions[r.pv[v]] = moved[v];
+    stretched[n] = most;
+  }
+  return stretched;
+}
+
+// Cloth edges through cloth triangles among the panels of garment g at positions x.
+size_t garment_crossings(const ClothModel& m, const GarmentFitDef& g, const std::vector<Vec3>& x) {
+  CheckMesh mesh;
+  mesh.vertices = x;
+  for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p) {
+    const Piece& piece = m.pieces[p];
+    mesh.group_names.push_back(piece.name);
+    mesh.group_first_triangle.push_back(uint32_t(mesh.num_triangles()));
+    mesh.triangles.insert(mesh.triangles.end(), m.collision_triangles.begin() + 3 * piece.first_triangle,
+                          m.collision_triangles.begin() + 3 * (piece.first_triangle + piece.num_triangles));
+  }
+  CheckReport r;
+  check_cloth_crossings(mesh, r);
+  return r.crossings;
 }
 
 // Whether panels a and b (their collision triangles at positions x) cross each other or themselves.
@@ -294,40 +590,62 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
     }
     if (!g.clear) continue;
 
-    // Clearance, panel by panel.
+    // Clearance, panel by panel, then panels that cross each other parted. False where a panel
+    // cannot be cleared (the reason in *refusal).
     const TriangleGrid grid(body, 0.03f, clearance);
     CheckMesh body_mesh;
     body_mesh.vertices = posed;
     body_mesh.triangles = body.tris;
     const size_t first_fit = fits.size();
-    for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p) {
-      const Piece& piece = m.pieces[p];
-      std::vector<uint32_t> pv, pt;
-      const Vec3 normal = panel_geometry(m, piece, pv, pt);
-      const float step = 0.005f;
-      float moved = 0;
-      bool clear = false;
-      for (float d = 0; d <= float(kMaxClearMove) + 1e-6f && !clear; d += step)
-        for (float sign : {1.0f, -1.0f}) {
-          if (panel_clear(m, pv, pt, normal * (sign * d), body, grid, body_mesh, clearance)) {
-            moved = sign * d, clear = true;
-            break;
+    auto place = [&](const std::vector<float>& stretch, std::string& refusal) {
+      for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p) {
+        const Piece& piece = m.pieces[p];
+        std::vector<uint32_t> pv, pt;
+        const Vec3 normal = panel_geometry(m, piece, pv, pt);
+        const float step = 0.005f;
+        float moved = 0;
+        bool clear = false;
+        for (float d = 0; d <= float(kMaxClearMove) + 1e-6f && !clear; d += step)
+          for (float sign : {1.0f, -1.0f}) {
+            if (panel_clear(m, pv, pt, normal * (sign * d), body, grid, body_mesh, clearance)) {
+              moved = sign * d, clear = true;
+              break;
+            }
+            if (d == 0) break;
           }
-          if (d == 0) break;
+        if (!clear) {
+          refusal = fmt::format("panel '{}' starts inside or through obstacle '{}', and moving it up to {:g} m "
+                                "either way along its normal did not clear it by {:g} m; place the garment "
+                                "with position or the panel with panels.<name>.offset",
+                                piece.name, g.body, kMaxClearMove, double(clearance));
+          return false;
         }
-      if (!clear) {
-        throw InputError(scene.source, g.field,
-                         fmt::format("panel '{}' starts inside or through obstacle '{}', and moving it up to {:g} m "
-                                     "either way along its normal did not clear it by {:g} m; place the garment "
-                                     "with position or the panel with panels.<name>.offset",
-                                     piece.name, g.body, kMaxClearMove, double(clearance)));
+        for (uint32_t i : pv) m.initial_positions[i] += normal * moved;
+        fits.push_back({piece.name, moved, stretch[p - g.first_panel]});
       }
-      for (uint32_t i : pv) m.initial_positions[i] += normal * moved;
-      fits.push_back({piece.name, moved});
+      separate_panels(m, g, fits, first_fit, body_mid, [&](const std::vector<uint32_t>& pv, const std::vector<uint32_t>& pt, Vec3 move) {
+        return panel_clear(m, pv, pt, move, body, grid, body_mesh, clearance);
+      });
+      return true;
+    };
+    // Panels narrower than the legs' stance are first wrapped around them. Where the wrapped garment
+    // cannot be placed without a crossing (layers laid on one hull: a tiered skirt's flounce through
+    // its skirt), it is placed flat, as if no panel had been wrapped.
+    std::vector<uint32_t> garment_panels;
+    for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p) garment_panels.push_back(p);
+    const std::vector<Vec3> flat = m.initial_positions;
+    std::vector<float> stretched =
+        wrap_for_stance(m, garment_panels, body, f, side_mid, front_mid, clearance + float(kStanceMargin));
+    std::string refusal;
+    bool placed = place(stretched, refusal);
+    if (std::any_of(stretched.begin(), stretched.end(), [](float w) { return w != 1.0f; }) &&
+        (!placed || garment_crossings(m, g, m.initial_positions) > 0)) {
+      m.initial_positions = flat;
+      fits.resize(first_fit);
+      stretched.assign(stretched.size(), 1.0f);
+      placed = place(stretched, refusal);
     }
-    separate_panels(m, g, fits, first_fit, body_mid, [&](const std::vector<uint32_t>& pv, const std::vector<uint32_t>& pt, Vec3 move) {
-      return panel_clear(m, pv, pt, move, body, grid, body_mesh, clearance);
-    });
+    if (!placed) throw InputError(scene.source, g.field, refusal);
   }
   // Seam partners follow their representatives; the springs start from the new lengths.
   for (uint32_t i = 0; i < m.num_vertices(); ++i) m.initial_positions[i] = m.initial_positions[m.alias[i]];

@@ -8,6 +8,12 @@
 //   neck line as GarmentCode's, scaled by the two bodies' heights (1.72 m);
 // - centre: the middle of the garment's extent in a band of heights around its anchor meets the middle
 //   of the body's cross-sections in the same band;
+// - stance: a front or back panel across the middle whose sides do not clear the legs' outer sides
+//   (a pencil skirt on a body standing with its feet apart) is wrapped, height by height, around the
+//   front or back half of the body's hull (hips or both legs, not the arms), stretched where it is
+//   too narrow to reach round, so that its sides start beside the other panel's, outside the legs,
+//   and the stitches close around them, not between them (flat, they closed between the legs);
+//   a garment that the wrap would leave crossed keeps its flat placement;
 // - clearance: a panel with a vertex inside the body, within the clearance of its surface, or a body
 //   edge through one of its triangles is moved along its normal (whichever way clears first) in
 //   steps of a quarter of the clearance, up to kMaxClearMove.
@@ -27,6 +33,13 @@ struct ObstacleSet;
 
 inline constexpr double kGarmentCodeHeight = 1.72, kGarmentCodeNeck = 1.457, kGarmentCodeWaist = 1.088;
 inline constexpr double kMaxClearMove = 0.25;  // metres
+// A panel is wrapped this far (metres, beyond the clearance) outside the body's hull, stretched by a
+// factor of at most kMaxStanceWiden.
+inline constexpr double kStanceMargin = 0.01, kMaxStanceWiden = 1.4;
+// A panel wrapped around the body's hull ends this far (metres of arc) short of the hull's side; a
+// panel is wrapped where its whole rows are narrower than the stance over this much height (metres);
+// one placed outside another on the same side is wrapped this much farther out (metres).
+inline constexpr double kWrapGap = 0.015, kNarrowHeight = 0.05, kWrapLayer = 0.015;
 // A garment whose top is below this (metres, in its file's frame) is in the older generator's frame
 // (waist at y = 0, T-pose) and is lifted by kGarmentCodeWaist before the fit.
 inline constexpr double kOlderFrameTop = 0.75;
@@ -41,7 +54,8 @@ struct BodyFrame {
 // Every panel's placement as the fit left it: how far it was moved out of the body.
 struct PanelFit {
   std::string panel;
-  float moved = 0;  // metres along its normal
+  float moved = 0;     // metres along its normal
+  float stretched = 1;  // the largest factor it was stretched by, wrapped around the legs (1: not wrapped)
 };
 
 BodyFrame body_frame(const ObstacleSet& obstacles, size_t obstacle, const std::vector<Vec3>& posed, const Float3& front);
