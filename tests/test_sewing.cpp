@@ -379,6 +379,7 @@ TEST(GarmentFit, ASkirtNarrowerThanTheLegsStanceIsWrappedAroundThem) {
   const std::vector<PanelFit> fits = fit_garments(m, o, s);
   ASSERT_EQ(fits.size(), 2u);
   for (const PanelFit& f : fits) {
+    EXPECT_TRUE(f.wrapped) << f.panel;
     EXPECT_GT(f.stretched, 1.05f) << f.panel;
     EXPECT_LE(f.stretched, float(kMaxStanceWiden) + 1e-6f) << f.panel;
   }

@@ -86,10 +86,11 @@ class Simulator {
   // Garments placed on a body (SceneDef::garment_fits): how far each of their panels was moved along
   // its normal to clear the body at the start (sim/garment_fit.h), in the scene's panel order.
   // How the fit placed each panel of a garment on a body (sim/garment_fit.h): metres along its
-  // normal, and the largest factor it was stretched by to reach around the legs (1: not).
+  // normal, whether it was wrapped around the legs, and the largest factor it was stretched by.
   struct PanelMove {
     std::string panel;
     float moved = 0;
+    bool wrapped = false;
     float stretched = 1;
   };
   const std::vector<PanelMove>& panel_moves() const { return panel_moves_; }

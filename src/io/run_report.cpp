@@ -83,11 +83,12 @@ nlohmann::json run_json(const RunReport& r, Simulator& sim) {
   }
   j["frames"] = frames;
   if (!m.stitches.empty()) j["seams"] = seams_json(r, sim);
-  // Garments placed on a body: each panel's move out of it and its stretch around the legs.
+  // Garments placed on a body: each panel's move out of it, whether it was wrapped around the legs
+  // and its stretch there.
   if (!sim.panel_moves().empty()) {
     nlohmann::json placement = nlohmann::json::array();
     for (const Simulator::PanelMove& p : sim.panel_moves())
-      placement.push_back({{"panel", p.panel}, {"moved", p.moved}, {"stretched", p.stretched}});
+      placement.push_back({{"panel", p.panel}, {"moved", p.moved}, {"wrapped", p.wrapped}, {"stretched", p.stretched}});
     j["placement"] = placement;
   }
   // The run's totals (raycloth/totals.h), each in its section; the integrator's follow.

@@ -319,7 +319,7 @@ HullHalf hull_half(std::vector<Point2> pts, bool front, double mid, double margi
 // the other panel's sides end, so the stitches start short and outside the legs. Where the panel is
 // narrower than that it starts stretched (at most kMaxStanceWiden; its rest lengths ease from the
 // stretched ones to the pattern's as the seams close, as every spring's do); where wider, the hull is
-// scaled up to fit it. Returns the largest stretch per panel (1 where not wrapped).
+// scaled up to fit it. Returns the largest stretch per panel (at least 1 where wrapped, 0 where not).
 template <class Panels>
 std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Body& body, const BodyFrame& f,
                                    double mid, double front_mid, float margin) {
@@ -345,7 +345,7 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
       return {lo, hi};
     }
   };
-  std::vector<float> stretched(panels.size(), 1.0f);
+  std::vector<float> stretched(panels.size(), 0.0f);
   std::vector<std::pair<size_t, Rows>> wrapped;  // (index into panels, rows)
   for (size_t n = 0; n < panels.size(); ++n) {
     Rows r;
@@ -389,7 +389,7 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
     const float grow = margin + float(inside * kWrapLayer);
     std::unordered_map<int64_t, HullHalf> halves;
     std::vector<Vec3> moved(r.pv.size());
-    float most = 1.0f;
+    float most = 0.0f;
     for (size_t v = 0; v < r.pv.size(); ++v) {
       const Vec3 x = m.initial_positions[r.pv[v]];
       moved[v] = x;
@@ -621,7 +621,8 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
           return false;
         }
         for (uint32_t i : pv) m.initial_positions[i] += normal * moved;
-        fits.push_back({piece.name, moved, stretch[p - g.first_panel]});
+        const float st = stretch[p - g.first_panel];
+        fits.push_back({piece.name, moved, st > 0, std::max(st, 1.0f)});
       }
       separate_panels(m, g, fits, first_fit, body_mid, [&](const std::vector<uint32_t>& pv, const std::vector<uint32_t>& pt, Vec3 move) {
         return panel_clear(m, pv, pt, move, body, grid, body_mesh, clearance);
@@ -638,11 +639,11 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
         wrap_for_stance(m, garment_panels, body, f, side_mid, front_mid, clearance + float(kStanceMargin));
     std::string refusal;
     bool placed = place(stretched, refusal);
-    if (std::any_of(stretched.begin(), stretched.end(), [](float w) { return w != 1.0f; }) &&
+    if (std::any_of(stretched.begin(), stretched.end(), [](float w) { return w > 0; }) &&
         (!placed || garment_crossings(m, g, m.initial_positions) > 0)) {
       m.initial_positions = flat;
       fits.resize(first_fit);
-      stretched.assign(stretched.size(), 1.0f);
+      stretched.assign(stretched.size(), 0.0f);
       placed = place(stretched, refusal);
     }
     if (!placed) throw InputError(scene.source, g.field, refusal);

@@ -55,7 +55,8 @@ struct BodyFrame {
 struct PanelFit {
   std::string panel;
   float moved = 0;     // metres along its normal
-  float stretched = 1;  // the largest factor it was stretched by, wrapped around the legs (1: not wrapped)
+  bool wrapped = false;  // laid around the legs' hull (sim/garment_fit.cpp, wrap_for_stance)
+  float stretched = 1;   // the largest factor it was stretched by there
 };
 
 BodyFrame body_frame(const ObstacleSet& obstacles, size_t obstacle, const std::vector<Vec3>& posed, const Float3& front);

@@ -24,7 +24,7 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
   obstacles_ = std::make_unique<ObstacleSet>(build_obstacles(scene_));
   // Garments named on a body are fitted to it, and their panels moved out of it, before anything
   // reads the start positions.
-  for (const PanelFit& f : fit_garments(*model_, *obstacles_, scene_)) panel_moves_.push_back({f.panel, f.moved, f.stretched});
+  for (const PanelFit& f : fit_garments(*model_, *obstacles_, scene_)) panel_moves_.push_back({f.panel, f.moved, f.wrapped, f.stretched});
   resolve_attachments(*model_, *obstacles_, scene_);
   // The displacement bound keeps apart what starts apart; it cannot undo a crossing.
   refuse_crossing_start(*model_, scene_.source);
