@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <unordered_map>
 
@@ -428,11 +429,12 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
   return stretched;
 }
 
-// Cloth edges through cloth triangles among the panels of garment g at positions x.
-size_t garment_crossings(const ClothModel& m, const GarmentFitDef& g, const std::vector<Vec3>& x) {
+// Cloth edges through cloth triangles among the given panels (their collision triangles at x).
+template <class Panels>
+size_t crossings_among(const ClothModel& m, const std::vector<Vec3>& x, const Panels& panels) {
   CheckMesh mesh;
   mesh.vertices = x;
-  for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p) {
+  for (uint32_t p : panels) {
     const Piece& piece = m.pieces[p];
     mesh.group_names.push_back(piece.name);
     mesh.group_first_triangle.push_back(uint32_t(mesh.num_triangles()));
@@ -446,18 +448,7 @@ size_t garment_crossings(const ClothModel& m, const GarmentFitDef& g, const std:
 
 // Whether panels a and b (their collision triangles at positions x) cross each other or themselves.
 bool panels_cross(const ClothModel& m, const std::vector<Vec3>& x, uint32_t a, uint32_t b) {
-  CheckMesh mesh;
-  mesh.vertices = x;
-  for (uint32_t p : {std::min(a, b), std::max(a, b)}) {
-    const Piece& piece = m.pieces[p];
-    mesh.group_names.push_back(piece.name);
-    mesh.group_first_triangle.push_back(uint32_t(mesh.num_triangles()));
-    mesh.triangles.insert(mesh.triangles.end(), m.collision_triangles.begin() + 3 * piece.first_triangle,
-                          m.collision_triangles.begin() + 3 * (piece.first_triangle + piece.num_triangles));
-  }
-  CheckReport r;
-  check_cloth_crossings(mesh, r);
-  return r.crossings > 0;
+  return crossings_among(m, x, std::array<uint32_t, 2>{std::min(a, b), std::max(a, b)}) > 0;
 }
 
 // Panels of one garment that cross each other once each is clear of the body (a hood over a
@@ -640,7 +631,7 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
     std::string refusal;
     bool placed = place(stretched, refusal);
     if (std::any_of(stretched.begin(), stretched.end(), [](float w) { return w > 0; }) &&
-        (!placed || garment_crossings(m, g, m.initial_positions) > 0)) {
+        (!placed || crossings_among(m, m.initial_positions, garment_panels) > 0)) {
       m.initial_positions = flat;
       fits.resize(first_fit);
       stretched.assign(stretched.size(), 0.0f);
