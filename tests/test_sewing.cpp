@@ -420,6 +420,40 @@ TEST(GarmentFit, AWrappedSkirtIsSewnAroundBothLegs) {
   fs::remove_all(d);
 }
 
+TEST(GarmentFit, PanelsOverlappingInOnePlaneStartParted) {
+  // Two 30 x 20 cm panels of one garment overlapping by half in one plane, clear of the body (as
+  // GarmentCodeData's rand_033UAN6C0K places its cuff flounces): touching everywhere they overlap,
+  // they would start with no room to move. One is moved along its normal, away from the body, until
+  // no inner vertex of either is within the thickness of the other; nothing crosses.
+  const fs::path d = temp_dir("overlap");
+  write(d / "body.obj", boxes_obj(kBody));
+  const std::string sq = R"("vertices": [[-15, 0], [15, 0], [15, 20], [-15, 20]],
+    "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}])";
+  write(d / "g.json", R"({"pattern": {"panels": {
+    "a": {"translation": [-8, 120, 20], "rotation": [0, 0, 0], )" + sq + R"(},
+    "b": {"translation": [8, 125.7, 20], "rotation": [0, 0, 0], )" + sq + R"(}},
+    "stitches": []}, "properties": {"units_in_meter": 100, "curvature_coords": "relative"}})");
+  std::string text = body_scene(", \"body\": \"body\"");
+  const std::string edge = "\"edge_length\": 0.04";
+  text.replace(text.find(edge), edge.size(), "\"edge_length\": 0.02");
+  const SceneDef s = parse_scene(text, (d / "scene.json").string());
+  ClothModel m = build_cloth_model(s);
+  const ObstacleSet o = build_obstacles(s);
+  const std::vector<PanelFit> fits = fit_garments(m, o, s);
+  ASSERT_EQ(fits.size(), 2u);
+  EXPECT_GE(std::abs(fits[0].moved) + std::abs(fits[1].moved), 0.005f - 1e-6f);
+  // The two planes: at least the thickness apart (they stay parallel, facing the body's front).
+  float za = 0, zb = 0;
+  for (uint32_t i = 0; i < m.pieces[0].vertex_count; ++i) za += m.initial_positions[m.pieces[0].first_vertex + i].z;
+  for (uint32_t i = 0; i < m.pieces[1].vertex_count; ++i) zb += m.initial_positions[m.pieces[1].first_vertex + i].z;
+  za /= float(m.pieces[0].vertex_count), zb /= float(m.pieces[1].vertex_count);
+  EXPECT_GE(std::abs(za - zb), s.collision.thickness);
+  CheckReport r;
+  check_cloth_crossings(cloth_check_mesh(m, m.initial_positions), r);
+  EXPECT_EQ(r.crossings, 0u);
+  fs::remove_all(d);
+}
+
 TEST(GarmentFit, BadGarmentsAreRefusedWordForWord) {
   const fs::path d = temp_dir("bad");
   write(d / "body.obj", boxes_obj(kBody));

@@ -451,25 +451,83 @@ bool panels_cross(const ClothModel& m, const std::vector<Vec3>& x, uint32_t a, u
   return crossings_among(m, x, std::array<uint32_t, 2>{std::min(a, b), std::max(a, b)}) > 0;
 }
 
+// Whether an inner vertex of panel a lies within `gap` of a triangle of panel b, or one of b within
+// gap of one of a's (at positions x): the two overlap. Vertices on a panel's outline are left out
+// (`outline`): panels sewn edge to edge may start with their edges together.
+bool panels_touch(const ClothModel& m, const std::vector<Vec3>& x, uint32_t a, uint32_t b, float gap,
+                  const std::vector<bool>& outline) {
+  const double g2 = double(gap) * double(gap);
+  for (auto [p, q] : {std::pair<uint32_t, uint32_t>{a, b}, {b, a}}) {
+    Body other;
+    other.x = &x;
+    const Piece& pq = m.pieces[q];
+    other.tris.assign(m.triangles.begin() + 3 * pq.first_triangle, m.triangles.begin() + 3 * (pq.first_triangle + pq.num_triangles));
+    const TriangleGrid grid(other, 0.03f, gap);
+    const Piece& pp = m.pieces[p];
+    for (uint32_t i = pp.first_vertex; i < pp.first_vertex + pp.vertex_count; ++i) {
+      if (outline[i]) continue;
+      if (const auto* near = grid.near(x[i]))
+        for (uint32_t t : *near) {
+          const TrianglePoint c = closest_on_triangle(dvec(x[i]), dvec(x[other.tris[3 * t]]), dvec(x[other.tris[3 * t + 1]]),
+                                                      dvec(x[other.tris[3 * t + 2]]));
+          if (c.dist2 < g2) return true;
+        }
+    }
+  }
+  return false;
+}
+
 // Panels of one garment that cross each other once each is clear of the body (a hood over a
-// sleeve, both moved out of the shoulder): the panel whose edge goes through moves on away from the
-// body's axis along its normal, 5 mm at a time while it stays clear of the body, up to
-// kMaxClearMove in all; failing that the other panel does. Pair by pair until none crosses or a pair
-// cannot be parted (then the start is refused as crossing, naming the two).
+// sleeve, both moved out of the shoulder), or that lie within `gap` of each other away from their
+// seams (GarmentCodeData's rand_033UAN6C0K places its two legs' cuff flounces overlapping in one
+// plane: touching everywhere, the displacement bound left their vertices no room to move, and the
+// flounces stayed where they started, their seams 36 cm open): the panel whose edge goes through
+// (or the first of a touching pair) moves on away from the body's axis along its normal, 5 mm at a
+// time while it stays clear of the body, up to kMaxClearMove in all; failing that the other panel
+// does. Pair by pair until none crosses or touches, or a pair cannot be parted (a crossing is then
+// refused at the start, naming the two).
 template <class Clear>
 void separate_panels(ClothModel& m, const GarmentFitDef& g, std::vector<PanelFit>& fits, size_t first_fit, Vec3 axis,
-                     Clear&& clear) {
+                     float gap, Clear&& clear) {
   auto panel_index = [&](const std::string& name) {
     for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p)
       if (m.pieces[p].name == name) return int(p);
     return -1;
   };
+  // Vertices on a panel's outline: on an edge of one of its triangles only.
+  std::vector<bool> outline(m.num_vertices(), false);
+  for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p) {
+    std::unordered_map<uint64_t, int> uses;
+    const Piece& piece = m.pieces[p];
+    for (uint32_t t = piece.first_triangle; t < piece.first_triangle + piece.num_triangles; ++t)
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t u = m.triangles[3 * t + k], v = m.triangles[3 * t + (k + 1) % 3];
+        ++uses[(uint64_t(std::min(u, v)) << 32) | std::max(u, v)];
+      }
+    for (const auto& [e, n] : uses)
+      if (n == 1) outline[uint32_t(e >> 32)] = outline[uint32_t(e & 0xffffffffu)] = true;
+  }
+  auto touching = [&](int& pa, int& pb) {
+    for (uint32_t a = g.first_panel; a < g.first_panel + g.num_panels; ++a)
+      for (uint32_t b = a + 1; b < g.first_panel + g.num_panels; ++b)
+        if (panels_touch(m, m.initial_positions, a, b, gap, outline)) {
+          pa = int(a), pb = int(b);
+          return true;
+        }
+    return false;
+  };
   for (uint32_t round = 0; round < 2 * g.num_panels; ++round) {
     CheckReport r;
     check_cloth_crossings(cloth_check_mesh(m, m.initial_positions), r);
-    if (r.crossings == 0) return;
-    const CrossingRecord& c = r.first_crossings.front();
-    const int pa = panel_index(c.edge_group), pb = panel_index(c.triangle_group);
+    int pa = -1, pb = -1;
+    bool touch = false;
+    if (r.crossings > 0) {
+      const CrossingRecord& c = r.first_crossings.front();
+      pa = panel_index(c.edge_group), pb = panel_index(c.triangle_group);
+    } else {
+      touch = touching(pa, pb);
+      if (!touch) return;
+    }
     if (pa < 0 || pb < 0 || pa == pb) return;
     bool parted = false;
     for (int p : {pa, pb}) {
@@ -489,6 +547,7 @@ void separate_panels(ClothModel& m, const GarmentFitDef& g, std::vector<PanelFit
         std::vector<Vec3> x = m.initial_positions;
         for (uint32_t i : pv) x[i] += move;
         if (panels_cross(m, x, uint32_t(pa), uint32_t(pb))) continue;
+        if (touch && panels_touch(m, x, uint32_t(pa), uint32_t(pb), gap, outline)) continue;
         m.initial_positions = x;
         fit.moved += sign * d;
         parted = true;
@@ -615,7 +674,8 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
         const float st = stretch[p - g.first_panel];
         fits.push_back({piece.name, moved, st > 0, std::max(st, 1.0f)});
       }
-      separate_panels(m, g, fits, first_fit, body_mid, [&](const std::vector<uint32_t>& pv, const std::vector<uint32_t>& pt, Vec3 move) {
+      separate_panels(m, g, fits, first_fit, body_mid, scene.collision.thickness,
+                      [&](const std::vector<uint32_t>& pv, const std::vector<uint32_t>& pt, Vec3 move) {
         return panel_clear(m, pv, pt, move, body, grid, body_mesh, clearance);
       });
       return true;
