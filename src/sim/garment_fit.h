@@ -16,7 +16,10 @@
 //   a garment that the wrap would leave crossed keeps its flat placement;
 // - clearance: a panel with a vertex inside the body, within the clearance of its surface, or a body
 //   edge through one of its triangles is moved along its normal (whichever way clears first) in
-//   steps of a quarter of the clearance, up to kMaxClearMove.
+//   steps of a quarter of the clearance, up to kMaxClearMove;
+// - parting: panels of the garment that cross each other, or overlap within the thickness (an inner
+//   vertex of one near a triangle of the other), are moved apart along their normals, away from
+//   the body.
 // The body's neck line is the narrowest horizontal cross-section (across its front) between 80 % and
 // 92 % of its height.
 #pragma once
