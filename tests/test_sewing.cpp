@@ -394,6 +394,24 @@ TEST(GarmentFit, ASkirtNarrowerThanTheLegsStanceIsWrappedAroundThem) {
   fs::remove_all(d);
 }
 
+TEST(GarmentFit, ADressPanelReachingAboveTheWaistIsNotWrapped) {
+  // The same straight panels, but from the knees to the neck (a dress): their rows above the waist
+  // would be laid on hulls that take in the arms and the neck, so they keep their flat placement.
+  const fs::path d = temp_dir("stance_dress");
+  write(d / "body.obj", legs_apart_obj());
+  std::string g = straight_skirt();
+  for (size_t at = g.find("[23, 50], [-23, 50]"); at != std::string::npos; at = g.find("[23, 50], [-23, 50]"))
+    g.replace(at, 19, "[23, 87], [-23, 87]");
+  write(d / "g.json", g);
+  const SceneDef s = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
+  ClothModel m = build_cloth_model(s);
+  const ObstacleSet o = build_obstacles(s);
+  const std::vector<PanelFit> fits = fit_garments(m, o, s);
+  ASSERT_EQ(fits.size(), 2u);
+  for (const PanelFit& f : fits) EXPECT_FALSE(f.wrapped) << f.panel;
+  fs::remove_all(d);
+}
+
 TEST(GarmentFit, AWrappedSkirtIsSewnAroundBothLegs) {
   // The skirt above, sewn: every stitch closes outside the legs (none between them), and no checked
   // step has a crossing or a vertex inside the body.

@@ -320,10 +320,11 @@ HullHalf hull_half(std::vector<Point2> pts, bool front, double mid, double margi
 // the other panel's sides end, so the stitches start short and outside the legs. Where the panel is
 // narrower than that it starts stretched (at most kMaxStanceWiden; its rest lengths ease from the
 // stretched ones to the pattern's as the seams close, as every spring's do); where wider, the hull is
-// scaled up to fit it. Returns the largest stretch per panel (at least 1 where wrapped, 0 where not).
+// scaled up to fit it. Only panels below `top` (skirts' panels) are wrapped. Returns the largest
+// stretch per panel (at least 1 where wrapped, 0 where not).
 template <class Panels>
 std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Body& body, const BodyFrame& f,
-                                   double mid, double front_mid, float margin) {
+                                   double mid, double front_mid, float margin, double top) {
   const double bin = 0.01;  // metres of height
   std::unordered_map<int64_t, Stance> stances;
   auto key_of = [&](double y) { return int64_t(std::floor((y - f.floor) / bin)); };
@@ -353,6 +354,9 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
     std::vector<uint32_t> pt;
     const Vec3 normal = panel_geometry(m, m.pieces[panels[n]], r.pv, pt);
     if (std::fabs(dot(normal, f.front)) < 0.7f) continue;
+    // Skirt panels only: a panel reaching above `top` (a dress's front from the shoulders) would have
+    // its upper rows laid on hulls that take in the arms or the neck.
+    if (std::any_of(r.pv.begin(), r.pv.end(), [&](uint32_t i) { return double(m.initial_positions[i].y) > top; })) continue;
     double front_sum = 0;
     for (uint32_t i : r.pv) {
       const double s = double(dot(m.initial_positions[i], f.side)) - mid;
@@ -687,7 +691,8 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
     for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p) garment_panels.push_back(p);
     const std::vector<Vec3> flat = m.initial_positions;
     std::vector<float> stretched =
-        wrap_for_stance(m, garment_panels, body, f, side_mid, front_mid, clearance + float(kStanceMargin));
+        wrap_for_stance(m, garment_panels, body, f, side_mid, front_mid, clearance + float(kStanceMargin),
+                        f.neck - (kGarmentCodeNeck - kGarmentCodeWaist) * scale + kWrapAboveWaist);
     std::string refusal;
     bool placed = place(stretched, refusal);
     if (std::any_of(stretched.begin(), stretched.end(), [](float w) { return w > 0; }) &&

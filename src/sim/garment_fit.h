@@ -43,6 +43,8 @@ inline constexpr double kStanceMargin = 0.01, kMaxStanceWiden = 1.4;
 // panel is wrapped where its whole rows are narrower than the stance over this much height (metres);
 // one placed outside another on the same side is wrapped this much farther out (metres).
 inline constexpr double kWrapGap = 0.015, kNarrowHeight = 0.05, kWrapLayer = 0.015;
+// Only panels that end below the body's waist and this much (metres) are wrapped: a skirt's.
+inline constexpr double kWrapAboveWaist = 0.1;
 // A garment whose top is below this (metres, in its file's frame) is in the older generator's frame
 // (waist at y = 0, T-pose) and is lifted by kGarmentCodeWaist before the fit.
 inline constexpr double kOlderFrameTop = 0.75;
