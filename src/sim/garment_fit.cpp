@@ -644,7 +644,7 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
     }
     if (!g.clear) continue;
 
-    // Clearance, panel by panel, then panels that cross each other parted. False where a panel
+    // Clearance, panel by panel, then panels that cross or overlap each other parted. False where a panel
     // cannot be cleared (the reason in *refusal).
     const TriangleGrid grid(body, 0.03f, clearance);
     CheckMesh body_mesh;
