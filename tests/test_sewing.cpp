@@ -49,19 +49,22 @@ fs::path temp_dir(const std::string& name) {
 
 void write(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
 
+// One box's OBJ lines: centred on (cx, z = 0), half width hx, half depth hz, from y0 to y1, its first
+// vertex numbered `base` (1-based), faces wound outward.
+std::string box_obj(float cx, float hx, float hz, float y0, float y1, int base) {
+  std::string s;
+  for (int k = 0; k < 8; ++k) s += fmt::format("v {} {} {}\n", cx + ((k & 1) ? hx : -hx), (k & 2) ? y1 : y0, (k & 4) ? hz : -hz);
+  const int f[12][3] = {{0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}, {0, 1, 5}, {0, 5, 4},
+                        {2, 6, 7}, {2, 7, 3}, {0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}};
+  for (const auto& t : f) s += fmt::format("f {} {} {}\n", base + t[0], base + t[1], base + t[2]);
+  return s;
+}
+
 // An OBJ of boxes stacked on the y axis: {half width (x), half depth (z), bottom, top} each.
 std::string boxes_obj(const std::vector<std::array<float, 4>>& boxes) {
   std::string s;
   int base = 1;
-  for (const auto& [hx, hz, y0, y1] : boxes) {
-    for (int k = 0; k < 8; ++k)
-      s += fmt::format("v {} {} {}\n", (k & 1) ? hx : -hx, (k & 2) ? y1 : y0, (k & 4) ? hz : -hz);
-    // Outward winding.
-    const int f[12][3] = {{0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}, {0, 1, 5}, {0, 5, 4},
-                          {2, 6, 7}, {2, 7, 3}, {0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}};
-    for (const auto& t : f) s += fmt::format("f {} {} {}\n", base + t[0], base + t[1], base + t[2]);
-    base += 8;
-  }
+  for (const auto& [hx, hz, y0, y1] : boxes) s += box_obj(0.0f, hx, hz, y0, y1, base), base += 8;
   return s;
 }
 
@@ -92,17 +95,8 @@ const std::vector<std::array<float, 4>> kBody = {{0.2f, 0.12f, 0.0f, 1.45f}, {0.
 // out) up to 0.8 m under a narrow torso, neck and head, facing +z.
 const float kLegOuter = 0.23f;
 std::string legs_apart_obj() {
-  std::string s = boxes_obj({{0.12f, 0.08f, 0.8f, 1.45f}, {0.05f, 0.05f, 1.45f, 1.6f}, {0.1f, 0.1f, 1.6f, 1.75f}});
-  int base = 25;
-  for (float cx : {-0.17f, 0.17f}) {
-    for (int k = 0; k < 8; ++k)
-      s += fmt::format("v {} {} {}\n", cx + ((k & 1) ? 0.06f : -0.06f), (k & 2) ? 0.8f : 0.0f, (k & 4) ? 0.04f : -0.04f);
-    const int f[12][3] = {{0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}, {0, 1, 5}, {0, 5, 4},
-                          {2, 6, 7}, {2, 7, 3}, {0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}};
-    for (const auto& t : f) s += fmt::format("f {} {} {}\n", base + t[0], base + t[1], base + t[2]);
-    base += 8;
-  }
-  return s;
+  return boxes_obj({{0.12f, 0.08f, 0.8f, 1.45f}, {0.05f, 0.05f, 1.45f, 1.6f}, {0.1f, 0.1f, 1.6f, 1.75f}}) +
+         box_obj(-0.17f, 0.06f, 0.04f, 0.0f, 0.8f, 25) + box_obj(0.17f, 0.06f, 0.04f, 0.0f, 0.8f, 33);
 }
 
 // A straight skirt of two 46 x 50 cm panels 20 cm in front of and behind the middle, its top at

@@ -42,15 +42,22 @@ Body obstacle_body(const ObstacleSet& obstacles, size_t oi, const std::vector<Ve
   return b;
 }
 
+// Where edge p-q crosses the horizontal plane at height h, into c; false where it does not (an edge
+// lying in the plane does not).
+bool cut_point(Vec3 p, Vec3 q, double h, Vec3& c) {
+  if ((double(p.y) - h) * (double(q.y) - h) > 0 || p.y == q.y) return false;
+  const float u = float((h - double(p.y)) / (double(q.y) - double(p.y)));
+  c = p + (q - p) * u;
+  return true;
+}
+
 Section section(const Body& b, double h, const BodyFrame& f) {
   Section s;
   const std::vector<Vec3>& x = *b.x;
   for (size_t t = 0; t < b.tris.size(); t += 3)
     for (int k = 0; k < 3; ++k) {
-      const Vec3 p = x[b.tris[t + k]], q = x[b.tris[t + (k + 1) % 3]];
-      if ((double(p.y) - h) * (double(q.y) - h) > 0 || p.y == q.y) continue;
-      const float u = float((h - double(p.y)) / (double(q.y) - double(p.y)));
-      const Vec3 c = p + (q - p) * u;
+      Vec3 c;
+      if (!cut_point(x[b.tris[t + k]], x[b.tris[t + (k + 1) % 3]], h, c)) continue;
       const double side = double(dot(c, f.side)), front = double(dot(c, f.front));
       s.side_lo = std::min(s.side_lo, side), s.side_hi = std::max(s.side_hi, side);
       s.front_lo = std::min(s.front_lo, front), s.front_hi = std::max(s.front_hi, front);
@@ -58,26 +65,33 @@ Section section(const Body& b, double h, const BodyFrame& f) {
   return s;
 }
 
+// The central pieces of a body's cut at `mid` (metres along its side): the one across it, or the two
+// either side of a gap across it (`legs`: the body stands on two legs there), from lo to hi. Not
+// the arms. lo > hi where the cut has neither.
+struct Stance {
+  bool legs = false;
+  double lo = INFINITY, hi = -INFINITY;
+};
+
 // The body's cut by the horizontal plane at height h, seen from above: a segment, (side, front) at
-// each end, per triangle the plane cuts; and the cut's pieces as seen from the front (the segments'
-// extents across, merged where they touch), lowest side first.
+// each end, per triangle the plane cuts; the cut's pieces as seen from the front (the segments'
+// extents across, merged where they touch), lowest side first; and its central pieces.
 struct Cut {
   std::vector<std::array<Point2, 2>> segments;
   std::vector<std::pair<double, double>> pieces;
+  Stance central;
 };
 
-Cut cut_at(const Body& b, double h, const BodyFrame& f) {
+Cut cut_at(const Body& b, double h, const BodyFrame& f, double mid) {
   Cut cut;
   const std::vector<Vec3>& x = *b.x;
   for (size_t t = 0; t < b.tris.size(); t += 3) {
     Point2 ends[2];
     int n = 0;
     for (int k = 0; k < 3 && n < 2; ++k) {
-      const Vec3 p = x[b.tris[t + k]], q = x[b.tris[t + (k + 1) % 3]];
-      if ((double(p.y) - h) * (double(q.y) - h) > 0 || p.y == q.y) continue;
-      const float u = float((h - double(p.y)) / (double(q.y) - double(p.y)));
-      const Vec3 c = p + (q - p) * u;
-      ends[n++] = Point2(double(dot(c, f.side)), double(dot(c, f.front)));
+      Vec3 c;
+      if (cut_point(x[b.tris[t + k]], x[b.tris[t + (k + 1) % 3]], h, c))
+        ends[n++] = Point2(double(dot(c, f.side)), double(dot(c, f.front)));
     }
     if (n == 2) cut.segments.push_back({ends[0], ends[1]});
   }
@@ -89,23 +103,12 @@ Cut cut_at(const Body& b, double h, const BodyFrame& f) {
       cut.pieces.back().second = std::max(cut.pieces.back().second, sp.second);
     else
       cut.pieces.push_back(sp);
+  const auto& pc = cut.pieces;
+  for (size_t i = 0; i < pc.size(); ++i) {
+    if (pc[i].first <= mid && pc[i].second >= mid) cut.central = {false, pc[i].first, pc[i].second};
+    if (i + 1 < pc.size() && pc[i].second < mid && pc[i + 1].first > mid) cut.central = {true, pc[i].first, pc[i + 1].second};
+  }
   return cut;
-}
-
-// Where the body stands on two legs at height h: the outer sides of the two pieces of its cut on
-// either side of a gap across `mid` (metres along the body's side). None where the cut is one piece
-// there (the torso, the hips), or empty.
-struct Stance {
-  bool legs = false;
-  double lo = 0, hi = 0;
-};
-
-Stance stance(const Body& b, double h, const BodyFrame& f, double mid) {
-  const std::vector<std::pair<double, double>> pieces = cut_at(b, h, f).pieces;
-  Stance st;
-  for (size_t i = 0; i + 1 < pieces.size(); ++i)
-    if (pieces[i].second < mid && pieces[i + 1].first > mid) st.legs = true, st.lo = pieces[i].first, st.hi = pieces[i + 1].second;
-  return st;
 }
 
 // A uniform grid of the body's triangles (each in every cell its box, grown by `margin`, touches).
@@ -202,21 +205,11 @@ Vec3 panel_geometry(const ClothModel& m, const Piece& piece, std::vector<uint32_
   return length(normal) > 0 ? normal / length(normal) : kUp;
 }
 
-// The body's cut at height h, seen from above, (side, front) per point, kept to its central pieces:
-// the one across `mid`, or the two either side of a gap across it (the legs); not the arms.
-std::vector<Point2> central_cut(const Body& b, double h, const BodyFrame& f, double mid) {
-  const Cut cut = cut_at(b, h, f);
-  double lo = INFINITY, hi = -INFINITY;
-  for (size_t i = 0; i < cut.pieces.size(); ++i) {
-    const auto& p = cut.pieces[i];
-    if (p.first <= mid && p.second >= mid) lo = p.first, hi = p.second;
-    if (i + 1 < cut.pieces.size() && p.second < mid && cut.pieces[i + 1].first > mid) lo = p.first, hi = cut.pieces[i + 1].second;
-  }
-  std::vector<Point2> pts;
+// The points of a cut's central pieces, (side, front), appended to pts.
+void central_points(const Cut& cut, std::vector<Point2>& pts) {
   for (const auto& c : cut.segments)
     for (const Point2& p : c)
-      if (p.x() >= lo && p.x() <= hi) pts.push_back(p);
-  return pts;
+      if (p.x() >= cut.central.lo && p.x() <= cut.central.hi) pts.push_back(p);
 }
 
 // One half of a body's hull at a height (its front or its back), grown by a margin, from its lowest
@@ -326,14 +319,14 @@ template <class Panels>
 std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Body& body, const BodyFrame& f,
                                    double mid, double front_mid, float margin, double top) {
   const double bin = 0.01;  // metres of height
-  std::unordered_map<int64_t, Stance> stances;
+  std::unordered_map<int64_t, Cut> cuts;  // the body's cut per bin of height, made once
   auto key_of = [&](double y) { return int64_t(std::floor((y - f.floor) / bin)); };
-  auto height = [&](int64_t k) { return f.floor + (double(k) + 0.5) * bin; };
-  auto stance_at = [&](int64_t k) -> const Stance& {
-    auto it = stances.find(k);
-    if (it == stances.end()) it = stances.emplace(k, stance(body, height(k), f, mid)).first;
+  auto cut_of = [&](int64_t k) -> const Cut& {
+    auto it = cuts.find(k);
+    if (it == cuts.end()) it = cuts.emplace(k, cut_at(body, f.floor + (double(k) + 0.5) * bin, f, mid)).first;
     return it->second;
   };
+  auto stance_at = [&](int64_t k) -> const Stance& { return cut_of(k).central; };
   // A panel's vertices and its extent either side of the middle per bin of height.
   struct Rows {
     std::vector<uint32_t> pv;
@@ -403,12 +396,9 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
       auto it = halves.find(k);
       if (it == halves.end()) {
         // The hull of the cuts within two bins, so that it changes smoothly from row to row.
-        std::vector<Point2> cut;
-        for (int64_t j = k - 2; j <= k + 2; ++j) {
-          const std::vector<Point2> c = central_cut(body, height(j), f, mid);
-          cut.insert(cut.end(), c.begin(), c.end());
-        }
-        it = halves.emplace(k, hull_half(std::move(cut), r.front, mid, grow)).first;
+        std::vector<Point2> pts;
+        for (int64_t j = k - 2; j <= k + 2; ++j) central_points(cut_of(j), pts);
+        it = halves.emplace(k, hull_half(std::move(pts), r.front, mid, grow)).first;
       }
       const HullHalf& half = it->second;
       if (half.empty()) continue;
