@@ -32,8 +32,8 @@ inline constexpr float kBoundNear = 0.25f;
 // features that come within a few micrometres of each other (cloth pulled into a tight fold, the two
 // sides of a seam folded back on each other) approach until the slack leaves their vertices no room
 // at all: they stop where they are, for good, and a body moving on walks into them. A pair nearer
-// than kBoundPlaneShare of the thickness (and farther than kBoundPlaneMin, well above the rounding
-// of float positions) gives its vertices planes instead: the two features are convex, so the plane
+// than kBoundPlaneShare of the thickness (and farther than plane_min, above the rounding of float
+// positions) gives its vertices planes instead: the two features are convex, so the plane
 // through their closest points' midpoint, normal to the line between them, has the one on its one
 // side and the other on its other; each vertex may move anywhere that does not take it towards the
 // other side (measured from its ball's centre), so the two can never meet, and they may part at
@@ -42,10 +42,29 @@ inline constexpr float kBoundNear = 0.25f;
 // nearest pair that gave one bounds its ball (plane_near), as without planes, whatever the order
 // the pairs were found in.
 inline constexpr float kBoundPlaneShare = 0.1f;
-inline constexpr double kBoundPlaneMin = 2e-6;
-// How far behind one of its planes (metres) a vertex may end up after the rounding of its float
-// position: far below the kBoundPlaneMin / 2 that each side has to the plane between them.
+// How far behind one of its planes (metres) a vertex may end up after keep_to_planes rounds its
+// position to float (farther: it goes back to x).
 inline constexpr double kBoundPlaneRounding = 1e-7;
+// The nearest pair that gets planes: each side has half of it to the plane between them, and may end
+// up behind its own by kBoundPlaneRounding and then the rounding of the ball's clamp along its move
+// (half a float ulp per coordinate: at most 1.03e-7 m along the plane's normal where every
+// coordinate is under 2 m). 0.5 um leaves each side 0.25 um against those 0.2 um, where the pair's
+// vertices are within kBoundPlaneNear of the origin; farther out, 2 um (the minimum everywhere until
+// 0.5.2). Below it a ball of kBoundFactor of the distance less the slack is empty and the pair's
+// vertices stand still: at 2 um, GarmentCodeData's rand_176L9DT8YW had two features of its top 1.6 um
+// apart at the walking man's armpit from 2.76 s and the vertex between them stood still for over 500
+// steps while his closing arm and torso moved through it (docs/collision.md, step 5).
+inline constexpr double kBoundPlaneMin = 5e-7;
+inline constexpr double kBoundPlaneMinFar = 2e-6;
+inline constexpr float kBoundPlaneNear = 2.0f;
+
+// The nearest a pair of features (vertex lists a[0..na), b[0..nb)) may be and get planes.
+RC_HD double plane_min(const StepView& s, const uint32_t* a, int na, const uint32_t* b, int nb) {
+  float m = 0.0f;
+  for (int k = 0; k < na; ++k) m = fmaxf(m, fmaxf(fabsf(s.x_ref[a[k]].x), fmaxf(fabsf(s.x_ref[a[k]].y), fabsf(s.x_ref[a[k]].z))));
+  for (int k = 0; k < nb; ++k) m = fmaxf(m, fmaxf(fabsf(s.x_ref[b[k]].x), fmaxf(fabsf(s.x_ref[b[k]].y), fabsf(s.x_ref[b[k]].z))));
+  return m < kBoundPlaneNear ? kBoundPlaneMin : kBoundPlaneMinFar;
+}
 
 // The radius of vertex i's ball: kBoundFactor of the nearest non-adjacent distance at x_ref (or of
 // the radius it was looked for within, when nothing was nearer), less the slack. Pairs that gave
@@ -270,10 +289,11 @@ RC_HD void bound_full_pair(const StepView& s, const uint32_t* a, int na, const u
   const double dd = sqrt(d2);
   const float d = float(dd);
   if (!(d < radius)) return;
-  if (s.bound_planes && dd > kBoundPlaneMin && d < kBoundPlaneShare * s.coll.thickness) {
+  const double least = s.bound_planes ? plane_min(s, a, na, b, nb) : kBoundPlaneMinFar;
+  if (s.bound_planes && dd > least && d < kBoundPlaneShare * s.coll.thickness) {
     const DVec3 g = pa - pb;
     const double len = sqrt(ddot(g, g));
-    if (len > 0.5 * kBoundPlaneMin) {
+    if (len > 0.5 * least) {
       const Vec3 n = make_vec3(float(g.x / len), float(g.y / len), float(g.z / len));
       for (int k = 0; k < na; ++k) add_plane(s, a[k], n, d);
       for (int k = 0; k < nb; ++k) add_plane(s, b[k], -n, d);
