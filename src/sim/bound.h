@@ -58,11 +58,19 @@ inline constexpr double kBoundPlaneMin = 5e-7;
 inline constexpr double kBoundPlaneMinFar = 2e-6;
 inline constexpr float kBoundPlaneNear = 2.0f;
 
+// The largest |coordinate| of a feature's vertices (v[0..n)) at their balls' centres.
+RC_HD float farthest_coordinate(const StepView& s, const uint32_t* v, int n) {
+  float m = 0.0f;
+  for (int k = 0; k < n; ++k) {
+    const Vec3 p = s.x_ref[v[k]];
+    m = fmaxf(m, fmaxf(fabsf(p.x), fmaxf(fabsf(p.y), fabsf(p.z))));
+  }
+  return m;
+}
+
 // The nearest a pair of features (vertex lists a[0..na), b[0..nb)) may be and get planes.
 RC_HD double plane_min(const StepView& s, const uint32_t* a, int na, const uint32_t* b, int nb) {
-  float m = 0.0f;
-  for (int k = 0; k < na; ++k) m = fmaxf(m, fmaxf(fabsf(s.x_ref[a[k]].x), fmaxf(fabsf(s.x_ref[a[k]].y), fabsf(s.x_ref[a[k]].z))));
-  for (int k = 0; k < nb; ++k) m = fmaxf(m, fmaxf(fabsf(s.x_ref[b[k]].x), fmaxf(fabsf(s.x_ref[b[k]].y), fabsf(s.x_ref[b[k]].z))));
+  const float m = fmaxf(farthest_coordinate(s, a, na), farthest_coordinate(s, b, nb));
   return m < kBoundPlaneNear ? kBoundPlaneMin : kBoundPlaneMinFar;
 }
 
