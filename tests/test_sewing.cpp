@@ -147,6 +147,51 @@ TEST(Sewing, StitchesCloseTwoPanelsPlacedTenCentimetresApartWithoutCrossing) {
   EXPECT_NEAR(hi - lo, 0.4f, 0.01f);
 }
 
+// Two 0.3 x 0.6 m panels hung 10 cm in front of and behind a horizontal bar (4 cm square, its top at
+// 1.02 m), their tops 8 cm above it and sewn together, closing over 0.5 s under gravity: a garment
+// hanging from its shoulders. Where gravity waits for the seam (sewing.gravity_waits, sim/backend.h)
+// the seam closes over the bar and the panels hang from it. Eased in over the close time, the panels
+// slid 7 cm down before they met the bar, the seam closed under it (the stitches are springs that
+// pull straight through a body) and the sewn panels fell off (checked: the stitches at y = 0.09 m).
+namespace {
+
+SceneDef panels_over_a_bar() {
+  SceneDef s = test::panel_scene(2, 0.1f, 0.0f, 1.0f);
+  s.time.dt = 2e-4;
+  s.panels = {test::rect_pattern("front", 0.3f, 0.6f, 0.025f, {0, 0.5f, 0.1f}),
+              test::rect_pattern("back", 0.3f, 0.6f, 0.025f, {0, 0.5f, -0.1f})};
+  s.obstacles.push_back(test::box_obstacle({0.5f, 0.04f, 0.04f}, {0, 1.0f, 0}));
+  SeamDef seam;
+  seam.a = {"front", "", "top", std::nullopt};
+  seam.b = {"back", "", "top", std::nullopt};
+  s.seams.push_back(seam);
+  s.sewing.close_time = 0.5;
+  return s;
+}
+
+// The lowest stitch after 1 s, every 100th step checked exactly.
+float lowest_stitch_after_a_second(const SceneDef& s) {
+  Simulator sim(s);
+  EXPECT_TRUE(sim.model().ease_gravity);
+  EXPECT_EQ(test::step_checked(sim, 5000, 100), "");
+  const ClothModel& m = sim.model();
+  EXPECT_LE(largest_stitch_gap(m, sim.positions()), seam_close_tolerance(s));
+  float lowest = INFINITY;
+  for (size_t k = 0; k < m.stitch_seam.size(); ++k) lowest = std::min(lowest, sim.positions()[m.stitches[2 * k]].y);
+  return lowest;
+}
+
+}  // namespace
+
+TEST(Sewing, PanelsHungFromASeamOverABarCloseOverItNotUnderIt) {
+  // sewing.gravity_waits: every stitch lies on the bar's top (1.02 m), none under it.
+  SceneDef waits = panels_over_a_bar();
+  waits.sewing.gravity_waits = true;
+  EXPECT_GT(lowest_stitch_after_a_second(waits), 1.02f);
+  // By default (gravity eased in over the close time): they slide off.
+  EXPECT_LT(lowest_stitch_after_a_second(panels_over_a_bar()), 0.5f);
+}
+
 TEST(Sewing, WeldAtStartKeepsOneVertexPerPairAndPairsThatStartTogetherWeld) {
   SceneDef s = two_squares_sewn();
   s.seams[0].weld_at_start = true;

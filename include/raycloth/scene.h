@@ -168,12 +168,15 @@ struct SeamDef {
 // close time is an open seam: run.json lists it and the run warns.
 // ease_gravity: gravity grows from 0 with the same smoothstep over the close time, so that panels
 // placed around a body do not fall before their seams hold them (default: on when a seam is sewn
-// from apart, off otherwise).
+// from apart, off otherwise). gravity_waits: gravity is off while the seams close instead, and grows
+// with a smoothstep over the next half of the close time (a garment hanging from its shoulders, eased
+// in over the close time, slides down the body before its shoulder seams close).
 struct SewingDef {
   double close_time = 0.0;
   bool weld_at_start = false;
   std::optional<float> close_tolerance;
   std::optional<bool> ease_gravity;
+  bool gravity_waits = false;
 };
 
 // Pins hold vertices in place: a corner ("bottom_left", ...), a whole edge or outline segment, or an

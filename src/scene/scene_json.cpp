@@ -49,8 +49,9 @@ SceneDef SceneReader::scene(const json& j) const {
   list(j, "", "garments", false, [&](const json& v, const std::string& p, size_t) { garment(v, p, s); });
   list(j, "", "pins", false, [&](const json& v, const std::string& p, size_t) { s.pins.push_back(pin(v, p)); });
   optional(j, "", "sewing", [&](const json& v, const std::string& p) {
-    object(v, p, {"close_time", "weld_at_start", "close_tolerance", "ease_gravity"});
+    object(v, p, {"close_time", "weld_at_start", "close_tolerance", "ease_gravity", "gravity_waits"});
     optional(v, p, "ease_gravity", [&](const json& w, const std::string& q) { s.sewing.ease_gravity = boolean(w, q); });
+    optional(v, p, "gravity_waits", [&](const json& w, const std::string& q) { s.sewing.gravity_waits = boolean(w, q); });
     optional(v, p, "close_time", [&](const json& w, const std::string& q) { s.sewing.close_time = number(w, q); });
     optional(v, p, "weld_at_start", [&](const json& w, const std::string& q) { s.sewing.weld_at_start = boolean(w, q); });
     optional(v, p, "close_tolerance",

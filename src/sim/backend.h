@@ -80,6 +80,21 @@ struct StepBuffers {
   BvhView obstacle_bvh, cloth_bvh;
 };
 
+// How much of gravity acts at time t where gravity eases in (ClothModel::ease_gravity): a smoothstep
+// over the seams' close time (sew_time), or where gravity waits (sewing.gravity_waits) none while
+// they close, then a smoothstep to all of it over kGravityEase of that time. Waiting, panels float
+// while their stitches draw them together around the body: eased in over the close time, a garment
+// hanging from its shoulders (a jumpsuit, a dress) slides down the body before its shoulder seams
+// close, and they close under the arms (the stitches are springs, not threads: they pull straight
+// through the body once the panels have slid past it).
+inline constexpr double kGravityEase = 0.5;
+inline float gravity_ease(double t, double sew_time, bool waits) {
+  if (!(sew_time > 0)) return 1.0f;
+  const double u = waits ? std::min(1.0, std::max(0.0, (t - sew_time) / (kGravityEase * sew_time)))
+                         : std::min(1.0, t / sew_time);
+  return float(u * u * (3 - 2 * u));
+}
+
 // The step's view, the same on both backends: the scene's collision settings, the step's context
 // (dt, how far seams have closed at the start of `step`, gravity), the backend's buffers and the
 // state's arrays (SimState::wire).
@@ -94,7 +109,7 @@ StepView make_step_view(const BackendInput& in, uint64_t step, const StepBuffers
   }
   s.ctx.dt = float(in.step().dt);
   s.ctx.gravity = make_vec3(scene.gravity[0], scene.gravity[1], scene.gravity[2]);
-  if (model.ease_gravity) s.ctx.gravity = s.ctx.gravity * s.ctx.sew;
+  if (model.ease_gravity) s.ctx.gravity = s.ctx.gravity * gravity_ease(double(step) * in.step().dt, model.sew_time, model.gravity_waits);
   s.coll.tolerance = scene.collision.tolerance;
   s.coll.thickness = scene.collision.thickness;
   s.coll.friction = scene.collision.friction;

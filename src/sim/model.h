@@ -143,7 +143,8 @@ struct ClothModel {
   std::vector<uint32_t> stitches, stitch_seam;
   std::vector<Vec3> rest_positions;  // each panel's own shape (a pattern's plane, a mesh's OBJ coordinates)
   float sew_time = 0;                // seconds over which rest lengths go from adj_rest_start to adj_rest
-  bool ease_gravity = false;         // gravity eases in over sew_time too (SewingDef::ease_gravity)
+  bool ease_gravity = false;         // gravity eased in (gravity_ease, sim/backend.h; SewingDef::ease_gravity)
+  bool gravity_waits = false;        // ... after sew_time, not over it (SewingDef::gravity_waits)
   // Cloth vertices of each scene attachment (before welding), and the resolved attachments.
   std::vector<std::vector<uint32_t>> attachment_vertices;
   std::vector<uint32_t> attach_slot, attach_tri;
