@@ -524,6 +524,10 @@ TEST(GarmentFit, BadGarmentsAreRefusedWordForWord) {
     }
     return std::string("no error");
   };
+  // sewing.gravity_waits that is not true or false.
+  std::string waits = body_scene(", \"body\": \"body\"");
+  waits.replace(waits.find("\"close_time\": 0.3"), 17, "\"close_time\": 0.3, \"gravity_waits\": 1");
+  EXPECT_EQ(message(waits), file + ": /sewing/gravity_waits: expected true or false, got number");
   // A body that is not an obstacle.
   std::string wrong = body_scene(", \"body\": \"man\"");
   EXPECT_EQ(message(wrong), file + ": /garments/0/body: no obstacle named 'man' (the scene has 'body')");
