@@ -528,6 +528,10 @@ TEST(GarmentFit, BadGarmentsAreRefusedWordForWord) {
   std::string waits = body_scene(", \"body\": \"body\"");
   waits.replace(waits.find("\"close_time\": 0.3"), 17, "\"close_time\": 0.3, \"gravity_waits\": 1");
   EXPECT_EQ(message(waits), file + ": /sewing/gravity_waits: expected true or false, got number");
+  waits = body_scene(", \"body\": \"body\"");
+  waits.replace(waits.find("\"close_time\": 0.3"), 17, "\"close_time\": 0.3, \"gravity_waits\": true, \"ease_gravity\": false");
+  EXPECT_EQ(message(waits), file + ": /sewing/gravity_waits: needs ease_gravity: with ease_gravity false gravity acts from the "
+                                   "start and does not wait");
   // A body that is not an obstacle.
   std::string wrong = body_scene(", \"body\": \"man\"");
   EXPECT_EQ(message(wrong), file + ": /garments/0/body: no obstacle named 'man' (the scene has 'body')");
