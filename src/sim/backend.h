@@ -88,11 +88,16 @@ struct StepBuffers {
 // close, and they close under the arms (the stitches are springs, not threads: they pull straight
 // through the body once the panels have slid past it).
 inline constexpr double kGravityEase = 0.5;
+
+// 0 to 1 as u goes from 0 to 1 (clamped), with no jolt at either end.
+inline float smoothstep01(double u) {
+  u = std::min(1.0, std::max(0.0, u));
+  return float(u * u * (3 - 2 * u));
+}
+
 inline float gravity_ease(double t, double sew_time, bool waits) {
   if (!(sew_time > 0)) return 1.0f;
-  const double u = waits ? std::min(1.0, std::max(0.0, (t - sew_time) / (kGravityEase * sew_time)))
-                         : std::min(1.0, t / sew_time);
-  return float(u * u * (3 - 2 * u));
+  return smoothstep01(waits ? (t - sew_time) / (kGravityEase * sew_time) : t / sew_time);
 }
 
 // The step's view, the same on both backends: the scene's collision settings, the step's context
@@ -104,8 +109,7 @@ StepView make_step_view(const BackendInput& in, uint64_t step, const StepBuffers
   const ClothModel& model = *in.model;
   StepView s;
   if (model.sew_time > 0) {
-    const double u = std::min(1.0, double(step) * in.step().dt / double(model.sew_time));
-    s.ctx.sew = float(u * u * (3 - 2 * u));  // smoothstep: no jolt at either end
+    s.ctx.sew = smoothstep01(double(step) * in.step().dt / double(model.sew_time));
   }
   s.ctx.dt = float(in.step().dt);
   s.ctx.gravity = make_vec3(scene.gravity[0], scene.gravity[1], scene.gravity[2]);
