@@ -5,9 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
+#include "core/bytes.h"
 #include "fixtures.h"
 #include "raycloth/error.h"
 #include "raycloth/simulator.h"
@@ -325,6 +327,34 @@ TEST(Sewing, AWeldWhileABodyMovesLeavesEachStepTheBodysOwnMove) {
   sim.step(2500);  // 0.5 s: the seam welds at about 0.4 s, the box 0.4 m from where it started
   ASSERT_GT(sim.stitches_welded(), 0u);
   EXPECT_NEAR(sim.totals().max_obstacle_move, 1.0 * s.time.dt, 1e-6);
+}
+
+// A checkpoint taken after stitches have welded resumes byte for byte. Each weld rebuilds the model
+// from the positions then (its start positions, the groups' masses summed weld by weld, and the mean
+// edge length, the scale of the bound's look-ahead). A restore that welded the pattern's own start
+// positions in one go instead put each group midway across its 10 cm gap, so the resumed run's mean
+// edge and masses were not the run's and its frames went another way (the GarmentCodeData top
+// rand_2CRQTA16NZ on the walking man: every frame from the first after the resume).
+TEST(Sewing, ARunResumedAfterItsWeldsGoesOnByteForByte) {
+  SceneDef s = two_squares_sewn();
+  s.gravity = {0, -9.81f, 0};
+  s.sewing.close_time = 0.2;
+  Simulator a(s);
+  a.step(1500);  // 0.3 s: the seam welds at about 0.2 s
+  ASSERT_GT(a.stitches_welded(), 0u);
+  ByteWriter checkpoint;
+  a.save_state(checkpoint);
+  a.step(500);
+  Simulator b(s);
+  ByteReader in(checkpoint.bytes(), "checkpoint");
+  b.restore_state(in);
+  EXPECT_EQ(b.model().mean_edge, a.model().mean_edge);
+  EXPECT_EQ(b.model().mass, a.model().mass);
+  b.step(500);
+  ASSERT_EQ(a.steps(), b.steps());
+  const std::vector<Vec3>&xa = a.positions(), &xb = b.positions();
+  ASSERT_EQ(xa.size(), xb.size());
+  EXPECT_EQ(std::memcmp(xa.data(), xb.data(), xa.size() * sizeof(Vec3)), 0);
 }
 
 TEST(GarmentFit, TheNeckLineOfAGarmentOnABodyIsTheBodys) {

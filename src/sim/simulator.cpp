@@ -315,10 +315,16 @@ void Simulator::save_state(ByteWriter& out) {
   out.u64(last_hits_);
   out.pod(totals_);
   out.pod(times_);
-  // Which stitches have been welded (the model's seam groups now).
+  // Which stitches have been welded (the model's seam groups now), and what the welds made of the
+  // model: its start positions (the positions at the last weld), masses (summed weld by weld) and so
+  // its mean edge length, which welding the pattern's start positions in one go would not give.
   out.u64(stitches_welded_);
   out.u64(welds_put_off_);
   out.vec(model_->alias);
+  out.vec(model_->initial_positions);
+  out.vec(model_->mass);
+  out.vec(model_->inv_mass);
+  out.pod(model_->mean_edge);
   backend_->save(out);
 }
 
@@ -329,11 +335,26 @@ void Simulator::restore_state(ByteReader& in) {
   in.pod(times_);
   const uint64_t welded = in.u64();
   welds_put_off_ = in.u64();
+  const size_t n = model_->num_vertices();
   std::vector<uint32_t> alias;
-  in.vec(alias, model_->num_vertices(), "seam groups");
+  std::vector<Vec3> start;
+  std::vector<float> mass, inv_mass;
+  in.vec(alias, n, "seam groups");
+  in.vec(start, n, "start positions");
+  in.vec(mass, n, "masses");
+  in.vec(inv_mass, n, "inverse masses");
+  float mean_edge = 0;
+  in.pod(mean_edge);
   if (alias != model_->alias) {
+    // As the welds left the model: weld_seams then adds nothing to the groups' masses (the partners'
+    // are 0), and its start positions and mean edge are put back as they were (averaging a group
+    // again could round them).
     model_->alias = alias;
+    model_->mass = std::move(mass);
+    model_->inv_mass = std::move(inv_mass);
     weld_seams(*model_);
+    model_->initial_positions = std::move(start);
+    model_->mean_edge = mean_edge;
     build_adjacency(*model_);
     x_ = model_->initial_positions;
     v_.assign(x_.size(), make_vec3(0, 0, 0));
