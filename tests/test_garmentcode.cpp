@@ -273,6 +273,53 @@ TEST(GarmentCode, StitchSewsTheFirstEdgesEndToTheSecondsStartUnlessRightWrong) {
   }
 }
 
+// A segment far shorter than the edge length (0.5 mm here; GarmentCodeData's rand_2CRQTA16NZ has
+// 0.45 and 0.75 mm ones at its straps) is merged into a point with the corners it joins, so that the
+// mesher does not put a fan of sub-millimetre triangles there (light vertices that the bound's
+// planes held still while a walking body moved through them). Two such segments sewn together are
+// one stitch, point to point. Meshed as it was, the corner had 0.5 mm edges and the seam two pairs.
+TEST(GarmentCode, ASegmentMuchShorterThanTheEdgeLengthIsMergedIntoAPoint) {
+  const std::string panel = R"("vertices": [[0, 0], [20, 0], [20, 20], [19.95, 20], [0, 20]],
+      "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 4]},
+                {"endpoints": [4, 0]}])";
+  const std::string file = R"({"pattern": {"panels": {
+      "a": {"translation": [0, 0, 0], "rotation": [0, 0, 0], )" + panel + R"(},
+      "b": {"translation": [0, 0, -5], "rotation": [0, 0, 0], )" + panel + R"(}},
+      "stitches": [[{"panel": "a", "edge": 2}, {"panel": "b", "edge": 2}]]}})";
+  GarmentCodeOptions o;
+  o.edge_length = 0.03f;
+  const auto g = parse(file, o);
+  const PatternMesh mesh = mesh_pattern(g.panels[0].pattern, [](const std::string& f, const std::string& r) {
+    FAIL() << f << ": " << r;
+  });
+  ASSERT_EQ(mesh.segments.size(), 5u);
+  ASSERT_EQ(mesh.segments[2].size(), 1u);  // the short segment is one vertex
+  EXPECT_EQ(mesh.segments[1].back(), mesh.segments[2][0]);
+  EXPECT_EQ(mesh.segments[3].front(), mesh.segments[2][0]);
+  const auto& corner = mesh.points[mesh.segments[2][0]];
+  EXPECT_NEAR(corner[0], 0.19975, 1e-6);  // the centre of the corners it joined
+  EXPECT_NEAR(corner[1], 0.2, 1e-6);
+  double shortest = 1e9;
+  for (size_t t = 0; t < mesh.triangles.size(); t += 3)
+    for (int k = 0; k < 3; ++k) {
+      const auto& p = mesh.points[mesh.triangles[t + size_t(k)]];
+      const auto& q = mesh.points[mesh.triangles[t + size_t((k + 1) % 3)]];
+      shortest = std::min(shortest, std::hypot(q[0] - p[0], q[1] - p[1]));
+    }
+  EXPECT_GT(shortest, 0.25 * o.edge_length);
+  // Sewn: one pair, the two merged corners.
+  SceneDef s;
+  s.materials.push_back({});
+  s.materials[0].name = "m";
+  s.panels = g.panels;
+  s.seams = g.seams;
+  s.sewing.weld_at_start = true;
+  const ClothModel m = build_cloth_model(s);
+  size_t welded = 0;
+  for (uint32_t i = 0; i < m.num_vertices(); ++i) welded += m.alias[i] != i;
+  EXPECT_EQ(welded, 1u);
+}
+
 TEST(GarmentCode, EveryShippedPatternFileLoadsAndEveryPanelMeshes) {
   // The three folders of the format family, counts from their NOTICE.md tables. The older templates
   // (garment-pattern-generator) write curvature as bare lists and some use units_in_meter 300; every

@@ -98,6 +98,43 @@ double fine_length(const std::vector<P2>& fine) {
   return l;
 }
 
+// The share of the edge length below which an outline segment is merged into a point: its two
+// ends become one, at the centre of the corners it joined (with every short segment next to it).
+// CGAL's mesher refines towards every constrained segment, so a segment far shorter than the edge
+// length leaves a fan of tiny triangles at its corner: GarmentCodeData's rand_2CRQTA16NZ has two of
+// 0.45 mm and two of 0.75 mm (strap tops), which gave sub-millimetre edges and vertices of a
+// hundredth of the mean mass, GarmentCode's jumpsuit ten of 0.9 to 1.8 mm in its trousers. On a
+// walking body such a corner, crushed against its own seam, held the vertices beside it in the
+// displacement bound's planes (sim/bound.h) while the body moved on through them.
+constexpr double kMinSegmentShare = 0.2;
+
+// Merges the outline's short segments (kMinSegmentShare) into points, moving the corners they join
+// to their centre: which segments are points now. None is merged where fewer than 3 would be left.
+std::vector<char> merge_short_segments(PatternDef& p) {
+  const size_t n = p.outline.size();
+  std::vector<char> point(n, 0);
+  const double least = kMinSegmentShare * double(p.edge_length);
+  size_t kept = n;
+  for (size_t k = 0; k < n; ++k) {
+    const OutlineSegment& seg = p.outline[k];
+    if (fine_length(fine_curve(p2(seg.from), p2(p.outline[(k + 1) % n].from), seg)) < least) point[k] = 1, --kept;
+  }
+  if (kept == n || kept < 3) return std::vector<char>(n, 0);
+  // Runs of corners joined by merged segments, each from a corner whose segment before it is kept.
+  std::vector<std::array<float, 2>> from(n);
+  for (size_t k = 0; k < n; ++k) from[k] = p.outline[k].from;
+  for (size_t c = 0; c < n; ++c) {
+    if (point[(c + n - 1) % n] || !point[c]) continue;
+    std::vector<size_t> run{c};
+    while (point[run.back()]) run.push_back((run.back() + 1) % n);
+    double x = 0, y = 0;
+    for (size_t k : run) x += double(from[k][0]), y += double(from[k][1]);
+    const std::array<float, 2> centre{float(x / double(run.size())), float(y / double(run.size()))};
+    for (size_t k : run) p.outline[k].from = centre;
+  }
+  return point;
+}
+
 }  // namespace
 
 std::vector<std::vector<P2>> sample_outline(const PatternDef& pattern) {
@@ -154,13 +191,17 @@ PatternMesh mesh_pattern(const PatternDef& pattern,
     if (dist(p2(seg.from), p2(pattern.outline[(k + 1) % n].from)) < 1e-9)
       fail(f + "/from", "the segment has no length (it starts where the next one does)");
   }
+  // Short segments become points (kMinSegmentShare); the rest is meshed from `merged`.
+  PatternDef merged = pattern;
+  const std::vector<char> point = merge_short_segments(merged);
   // The outline as a fine polygon: it must be simple (no crossing, no touching), and its area
   // bounds the vertex count.
   CGAL::Polygon_2<K> polygon;
   double perimeter = 0;
   for (size_t k = 0; k < n; ++k) {
-    const auto fine = fine_curve(p2(pattern.outline[k].from), p2(pattern.outline[(k + 1) % n].from),
-                                 pattern.outline[k]);
+    if (point[k]) continue;
+    const auto fine = fine_curve(p2(merged.outline[k].from), p2(merged.outline[(k + 1) % n].from),
+                                 merged.outline[k]);
     perimeter += fine_length(fine);
     for (size_t i = 0; i + 1 < fine.size(); ++i) polygon.push_back(K::Point_2(fine[i][0], fine[i][1]));
   }
@@ -172,10 +213,11 @@ PatternMesh mesh_pattern(const PatternDef& pattern,
                             std::to_string(int64_t(kMaxPatternVertices)) + "; make it longer");
   if (!polygon.is_simple()) fail("outline", "the outline crosses or touches itself");
 
-  const auto samples = sample_outline(pattern);
+  const auto samples = sample_outline(merged);
   CdtPlus cdt;
   std::vector<CdtPlus::Constraint_id> ids(n);
   for (size_t k = 0; k < n; ++k) {
+    if (point[k]) continue;
     std::vector<K::Point_2> pts;
     for (const P2& p : samples[k]) pts.emplace_back(p[0], p[1]);
     const P2& end = samples[(k + 1) % n].front();
@@ -195,9 +237,17 @@ PatternMesh mesh_pattern(const PatternDef& pattern,
   // Number vertices along the outline first (in order), then the interior ones as faces meet them.
   for (size_t k = 0; k < n; ++k) {
     std::vector<uint32_t> path;
-    for (auto it = cdt.vertices_in_constraint_begin(ids[k]); it != cdt.vertices_in_constraint_end(ids[k]); ++it)
-      path.push_back(id(*it));
+    if (!point[k])
+      for (auto it = cdt.vertices_in_constraint_begin(ids[k]); it != cdt.vertices_in_constraint_end(ids[k]); ++it)
+        path.push_back(id(*it));
     m.segments.push_back(std::move(path));
+  }
+  // A segment merged into a point is that one vertex: where the next kept segment starts.
+  for (size_t k = 0; k < n; ++k) {
+    if (!point[k]) continue;
+    size_t j = (k + 1) % n;
+    while (point[j]) j = (j + 1) % n;
+    m.segments[k] = {m.segments[j].front()};
   }
   for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
     if (!f->is_in_domain()) continue;

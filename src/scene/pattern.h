@@ -15,7 +15,8 @@ struct PatternMesh {
   std::vector<std::array<double, 2>> points;      // the pattern's plane, metres
   std::vector<uint32_t> triangles;                // 3 per triangle, counter-clockwise in the plane
   // Per outline segment, its vertices in the outline's order, both ends included (the end is the
-  // next segment's first vertex).
+  // next segment's first vertex). A segment shorter than a fifth of the edge length is merged into
+  // a point with the corners it joins: its path is that one vertex.
   std::vector<std::vector<uint32_t>> segments;
 };
 

@@ -274,6 +274,18 @@ SeamPairs pair_seams(const SceneDef& s, std::vector<PanelMesh>& meshes) {
       tag();
       continue;
     }
+    // A pattern segment merged into a point (scene/pattern.h) against a path: the point is sewn to
+    // both of its ends.
+    if (ea.size() == 1 || eb.size() == 1) {
+      const std::vector<uint32_t>& one = ea.size() == 1 ? ea : eb;
+      const std::vector<uint32_t>& other = ea.size() == 1 ? eb : ea;
+      for (uint32_t v : {other.front(), other.back()}) {
+        if (ea.size() == 1) pairs.push_back({{{ia, one[0]}, {ib, v}}});
+        else pairs.push_back({{{ia, v}, {ib, one[0]}}});
+      }
+      tag();
+      continue;
+    }
     // Walk both paths by arc length: vertices closer than a quarter of the local spacing pair up;
     // any other vertex gets a partner inserted on the other path's edge at the same fraction.
     const std::vector<double> sa = arc_fractions(ma, ea), sb = arc_fractions(mb, eb);
