@@ -170,13 +170,14 @@ struct SeamDef {
 // placed around a body do not fall before their seams hold them (default: on when a seam is sewn
 // from apart, off otherwise). gravity_waits: gravity is off while the seams close instead, and grows
 // with a smoothstep over the next half of the close time (a garment hanging from its shoulders, eased
-// in over the close time, slides down the body before its shoulder seams close).
+// in over the close time, slides down the body before its shoulder seams close). Default: on where a
+// seam is sewn from apart (0.5.4; off before), as ease_gravity.
 struct SewingDef {
   double close_time = 0.0;
   bool weld_at_start = false;
   std::optional<float> close_tolerance;
   std::optional<bool> ease_gravity;
-  bool gravity_waits = false;
+  std::optional<bool> gravity_waits;
 };
 
 // Pins hold vertices in place: a corner ("bottom_left", ...), a whole edge or outline segment, or an

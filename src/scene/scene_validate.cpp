@@ -271,7 +271,7 @@ void validate_garment_fits(const Checks& c) {
 
 void validate_sewing(const Checks& c) {
   c.non_negative(c.s.sewing.close_time, "/sewing/close_time");
-  if (c.s.sewing.gravity_waits && c.s.sewing.ease_gravity == false)
+  if (c.s.sewing.gravity_waits == true && c.s.sewing.ease_gravity == false)
     c.fail("/sewing/gravity_waits", "needs ease_gravity: with ease_gravity false gravity acts from the start and does not wait");
   if (!c.s.sewing.close_tolerance) return;
   const double tol = *c.s.sewing.close_tolerance, thickness = c.s.collision.thickness;

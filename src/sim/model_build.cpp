@@ -162,7 +162,7 @@ ClothModel build_cloth_model(const SceneDef& s) {
     for (Spring& sp : m.springs) sp.rest_start = length(m.initial_positions[sp.b] - m.initial_positions[sp.a]);
     m.sew_time = float(s.sewing.close_time);
     m.ease_gravity = s.sewing.ease_gravity.value_or(!m.stitches.empty());
-    m.gravity_waits = s.sewing.gravity_waits;
+    m.gravity_waits = s.sewing.gravity_waits.value_or(!m.stitches.empty());
   }
   build_adjacency(m);
   return m;
