@@ -104,9 +104,8 @@ double fine_length(const std::vector<P2>& fine) {
 // length leaves a fan of tiny triangles at its corner: GarmentCodeData's rand_2CRQTA16NZ has two of
 // 0.45 mm and two of 0.75 mm (strap tops), which gave sub-millimetre edges and vertices of a
 // hundredth of the mean mass; GarmentCode's jumpsuit has ten of 0.9 to 1.8 mm where its trousers meet
-// its torso. On a
-// walking body such a corner, crushed against its own seam, held the vertices beside it in the
-// displacement bound's planes (sim/bound.h) while the body moved on through them.
+// its torso. On a walking body such a corner, crushed against its own seam, held the vertices beside
+// it in the displacement bound's planes (sim/bound.h) while the body moved on through them.
 constexpr double kMinSegmentShare = 0.2;
 
 // Merges the outline's short segments (kMinSegmentShare) into points, moving the corners they join
