@@ -50,6 +50,17 @@ GarmentCodeGarment parse(const std::string& text, GarmentCodeOptions o = {}) {
   return parse_garmentcode(text, "gc.json", o);
 }
 
+// The garment's panels and seams, material "m", its seams welded at the start.
+ClothModel welded_at_start(const GarmentCodeGarment& g) {
+  SceneDef s;
+  s.materials.push_back({});
+  s.materials[0].name = "m";
+  s.panels = g.panels;
+  s.seams = g.seams;
+  s.sewing.weld_at_start = true;
+  return build_cloth_model(s);
+}
+
 // The fine polyline of segment 0 of a pattern (from its start to the next segment's start).
 std::vector<std::array<double, 2>> first_segment(const PatternDef& p) {
   const auto all = fine_outline(p);
@@ -247,13 +258,7 @@ TEST(GarmentCode, StitchSewsTheFirstEdgesEndToTheSecondsStartUnlessRightWrong) {
     EXPECT_EQ(g.seams[0].a.segment, "e1");
     EXPECT_EQ(g.seams[0].b.segment, "e3");
     EXPECT_EQ(g.seams[0].reverse, !right_wrong);
-    SceneDef s;
-    s.materials.push_back({});
-    s.materials[0].name = "m";
-    s.panels = g.panels;
-    s.seams = g.seams;
-    s.sewing.weld_at_start = true;
-    const ClothModel m = build_cloth_model(s);
+    const ClothModel m = welded_at_start(g);
     ASSERT_EQ(m.pieces.size(), 2u);
     // Each vertex of a's right edge (rest x = 0.1) is welded to one of b's left edge (rest x = 0):
     // at the same height by default, at the mirrored height with right_wrong.
@@ -308,13 +313,7 @@ TEST(GarmentCode, ASegmentMuchShorterThanTheEdgeLengthIsMergedIntoAPoint) {
     }
   EXPECT_GT(shortest, 0.25 * o.edge_length);
   // Sewn: one pair, the two merged corners.
-  SceneDef s;
-  s.materials.push_back({});
-  s.materials[0].name = "m";
-  s.panels = g.panels;
-  s.seams = g.seams;
-  s.sewing.weld_at_start = true;
-  const ClothModel m = build_cloth_model(s);
+  const ClothModel m = welded_at_start(g);
   size_t welded = 0;
   for (uint32_t i = 0; i < m.num_vertices(); ++i) welded += m.alias[i] != i;
   EXPECT_EQ(welded, 1u);

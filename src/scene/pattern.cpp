@@ -120,15 +120,14 @@ std::vector<char> merge_short_segments(PatternDef& p) {
     if (fine_length(fine_curve(p2(seg.from), p2(p.outline[(k + 1) % n].from), seg)) < least) point[k] = 1, --kept;
   }
   if (kept == n || kept < 3) return std::vector<char>(n, 0);
-  // Runs of corners joined by merged segments, each from a corner whose segment before it is kept.
-  std::vector<std::array<float, 2>> from(n);
-  for (size_t k = 0; k < n; ++k) from[k] = p.outline[k].from;
+  // Runs of corners joined by merged segments, each from a corner whose segment before it is kept
+  // (the runs share no corner, so each reads its corners before any run moves them).
   for (size_t c = 0; c < n; ++c) {
     if (point[(c + n - 1) % n] || !point[c]) continue;
     std::vector<size_t> run{c};
     while (point[run.back()]) run.push_back((run.back() + 1) % n);
     double x = 0, y = 0;
-    for (size_t k : run) x += double(from[k][0]), y += double(from[k][1]);
+    for (size_t k : run) x += double(p.outline[k].from[0]), y += double(p.outline[k].from[1]);
     const std::array<float, 2> centre{float(x / double(run.size())), float(y / double(run.size()))};
     for (size_t k : run) p.outline[k].from = centre;
   }
