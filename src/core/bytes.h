@@ -35,7 +35,9 @@ class ByteWriter {
   std::string& bytes() { return bytes_; }
 
  private:
-  void raw(const void* p, size_t n) { bytes_.append(static_cast<const char*>(p), n); }
+  void raw(const void* p, size_t n) {
+    if (n > 0) bytes_.append(static_cast<const char*>(p), n);  // an empty vector's data() may be null
+  }
   std::string bytes_;
 };
 
@@ -59,7 +61,7 @@ class ByteReader {
     const uint64_t n = u64();
     if (n > (data_.size() - at_) / sizeof(T)) fail_truncated();
     v.resize(n);
-    std::memcpy(v.data(), data_.data() + at_, n * sizeof(T));
+    if (n > 0) std::memcpy(v.data(), data_.data() + at_, n * sizeof(T));  // an empty vector's data() may be null
     at_ += n * sizeof(T);
   }
   // A vector that must have `count` elements (the model's vertex count...).
