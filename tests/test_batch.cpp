@@ -310,6 +310,42 @@ TEST(Batch, KilledCaseResumesFromItsCheckpoint) {
   }
 }
 
+// A case whose process ends without writing its result (here its folder is a file, so result.json
+// cannot be written) is a failure, said as such: until 0.5.5 the batch counted it as "held by other
+// processes" and exited 4, with no word of the error where the case ran in a process of its own.
+// The other cases run, its claim goes, and a rerun once the folder is fixed runs it.
+TEST(Batch, ACaseEndingWithoutAResultIsSaidAndRetriedNotCountedAsHeld) {
+  const fs::path dir = fresh_dir("lost"), out = dir / "out";
+  const std::string sweep = (kData / "sweep.json").string();
+  for (const std::string jobs : {"1", "2"}) {
+    fs::remove_all(out);
+    fs::create_directories(out / "cases");
+    write(out / "cases" / "00000", "not a folder\n");
+    const std::string run = "batch " + sweep + " --out " + out.string() + " --shard 0/3 --threads 1 --jobs " + jobs;
+    const Result r = run_cli(run, dir, "jobs" + jobs);
+    EXPECT_EQ(r.code, 1) << r.err;
+    const std::string error = "batch: case 00000 ended without a result: " +
+                              (out / "cases" / "00000" / "result.json").string() +
+                              ": cannot write: Not a directory; run the batch again to retry it\n";
+    EXPECT_NE(r.err.find(error), std::string::npos) << r.err;
+    if (jobs == "2")
+      EXPECT_NE(r.err.find("batch: case 00000 ended with exit status 1 without a result (its error is above); run "
+                           "the batch again to retry it\n"),
+                std::string::npos)
+          << r.err;
+    EXPECT_NE(r.err.find("batch: 1/2 done, 0 failed, 0 running, 1 ended without a result, ETA"), std::string::npos)
+        << r.err;
+    EXPECT_EQ(r.err.find("held"), std::string::npos) << r.err;
+    EXPECT_TRUE(raycloth::read_case_result(out, 3));  // the share's other case
+    EXPECT_FALSE(raycloth::read_case_result(out, 0));
+    EXPECT_TRUE(fs::is_empty(out / "claims"));
+    fs::remove(out / "cases" / "00000");
+    const Result again = run_cli(run, dir, "again" + jobs);
+    EXPECT_EQ(again.code, 0) << again.err;
+    EXPECT_TRUE(raycloth::read_case_result(out, 0));
+  }
+}
+
 // Three processes on the same sweep and folder at once: every case runs exactly once.
 TEST(Batch, ConcurrentProcessesNeverRunTheSameCase) {
   const fs::path dir = fresh_dir("concurrent"), out = dir / "out";

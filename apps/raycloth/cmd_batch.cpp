@@ -59,28 +59,35 @@ class Progress {
     wall_ += wall;
   }
   void held() { ++held_; }
+  // A case whose process ended without writing its result (an error writing it, a signal).
+  void lost() { ++lost_; }
   void print(int running, int jobs) const {
     if (quiet_) return;
     std::string eta = "?";
-    const size_t left = total_ - done_ - held_;
+    const size_t left = total_ - done_ - held_ - lost_;
     if (ran_ > 0) {
       const double per_case = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count() /
                               double(ran_);
       eta = clock_text(per_case * double(left));
     }
     (void)jobs;
-    std::cerr << fmt::format("batch: {}/{} done, {} failed, {} running{}, ETA {}\n", done_, total_, failed_, running,
+    std::cerr << fmt::format("batch: {}/{} done, {} failed, {} running{}{}, ETA {}\n", done_, total_, failed_, running,
+                             lost_ ? fmt::format(", {} ended without a result", lost_) : "",
                              held_ ? fmt::format(", {} held by other processes", held_) : "", eta);
   }
-  size_t failed() const { return failed_; }
+  size_t failed() const { return failed_ + lost_; }
   size_t held_count() const { return held_; }
 
  private:
-  size_t total_, done_, ran_ = 0, failed_ = 0, held_ = 0;
+  size_t total_, done_, ran_ = 0, failed_ = 0, held_ = 0, lost_ = 0;
   bool quiet_;
   double wall_ = 0;
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
+
+// The exit status of a batch process whose share holds a case another live process has claimed
+// (and no failure): what a case process (`--index I`) tells its parent when the case was not its own.
+constexpr int kExitHeld = 4;
 
 bool failed_status(const nlohmann::ordered_json& r) {
   const int s = r.value("status", 1);
@@ -151,7 +158,18 @@ int batch_command(const BatchArgs& a) {
     if (a.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
     for (size_t i : todo) {
       nlohmann::ordered_json r;
-      const CaseOutcome o = run_case(sweep, i, opt, &r);
+      CaseOutcome o;
+      try {
+        o = run_case(sweep, i, opt, &r);
+      } catch (const std::exception& e) {
+        // The case could not record its result (its folder, results.jsonl, its claim): the others
+        // go on; a rerun runs it again. Said even with --quiet, as errors are.
+        progress.lost();
+        std::cerr << fmt::format("batch: case {} ended without a result: {}; run the batch again to retry it\n",
+                                 case_id(i), e.what());
+        progress.print(0, 1);
+        continue;
+      }
       if (o == CaseOutcome::ran) progress.finished(failed_status(r), r.value("wall_s", 0.0));
       else if (o == CaseOutcome::claimed) progress.held();
       else progress.finished(false, 0);
@@ -178,13 +196,24 @@ int batch_command(const BatchArgs& a) {
       if (it == running.end()) continue;
       const size_t i = it->second;
       running.erase(it);
-      if (const auto r = read_case_result(a.out, i)) progress.finished(failed_status(*r), r->value("wall_s", 0.0));
-      else {
-        // Held by another process, or the child died (then its claim is dead: a rerun resumes it).
-        progress.held();
-        if (WIFSIGNALED(wstatus) && !a.quiet)
-          std::cerr << fmt::format("batch: case {} stopped by signal {}; run the batch again to resume it\n",
-                                   case_id(i), WTERMSIG(wstatus));
+      if (const auto r = read_case_result(a.out, i)) {
+        progress.finished(failed_status(*r), r->value("wall_s", 0.0));
+      } else if (WIFEXITED(wstatus) && WEXITSTATUS(wstatus) == kExitHeld) {
+        progress.held();  // the case process found it claimed by another live process
+      } else {
+        // The case process died (its claim is dead: a rerun resumes it from its checkpoint) or
+        // ended on an error before its result was written (the error is above, on its stderr).
+        progress.lost();
+        if (!a.quiet) {
+          if (WIFSIGNALED(wstatus))
+            std::cerr << fmt::format("batch: case {} stopped by signal {} without a result; run the batch again to "
+                                     "resume it\n",
+                                     case_id(i), WTERMSIG(wstatus));
+          else
+            std::cerr << fmt::format("batch: case {} ended with exit status {} without a result (its error is "
+                                     "above); run the batch again to retry it\n",
+                                     case_id(i), WEXITSTATUS(wstatus));
+        }
       }
     }
     progress.print(0, a.jobs);
@@ -196,7 +225,7 @@ int batch_command(const BatchArgs& a) {
     std::cout << csv;
   }
   if (progress.failed() + failed_before > 0) return 1;
-  if (progress.held_count() > 0) return 4;
+  if (progress.held_count() > 0) return kExitHeld;
   return 0;
 }
 

@@ -311,6 +311,15 @@ CaseOutcome run_case(const Sweep& s, size_t i, const BatchOptions& o, ojson* res
   if (c == Claim::finished) return CaseOutcome::finished;
   if (c == Claim::held) return CaseOutcome::claimed;
   const fs::path claim = o.out / "claims" / case_id(i);
+  // The claim goes when the case ends, with its result or on an error that leaves none (a rerun
+  // runs it again).
+  struct ClaimRelease {
+    const fs::path& file;
+    ~ClaimRelease() {
+      std::error_code ec;
+      fs::remove(file, ec);
+    }
+  } release{claim};
   const fs::path dir = o.out / "cases" / case_id(i);
   const auto t0 = std::chrono::steady_clock::now();
 
@@ -396,7 +405,6 @@ CaseOutcome run_case(const Sweep& s, size_t i, const BatchOptions& o, ojson* res
     }
     ::close(fd);
   }
-  fs::remove(claim, ec);
   if (result) *result = r;
   return CaseOutcome::ran;
 }
