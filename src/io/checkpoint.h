@@ -20,7 +20,7 @@
 
 namespace raycloth {
 
-inline constexpr uint32_t kCheckpointFormat = 6;  // 2: FrameRecord::seam_gap; 3: the state as SimState::for_each_kept lists it, RunTotals; 4: welds put off; 5: RunTotals::max_obstacle_move, the bound's planes; 6: the welded model's start positions and masses
+inline constexpr uint32_t kCheckpointFormat = 7;  // 2: FrameRecord::seam_gap; 3: the state as SimState::for_each_kept lists it, RunTotals; 4: welds put off; 5: RunTotals::max_obstacle_move, the bound's planes; 6: the welded model's start positions and masses; 7: StepCounters::pass_moved
 inline constexpr const char* kCheckpointName = "checkpoint.bin";
 
 // raycloth's version (CMake's project version).

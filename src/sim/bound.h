@@ -450,9 +450,16 @@ RC_HD uint32_t stage_clamp(const StepView& s, uint32_t i) {
 inline constexpr uint32_t kBoundPasses = 4;
 
 // 1 when vertex i was pushed (by an obstacle or by the contact solve) and is clamped; with an
-// integrator of long steps (`every_clamp`), when it is clamped at all.
+// integrator of long steps (`every_clamp`), when it is clamped at all. In a step where no body moves
+// (a skinned body standing before its walk), a push of the contact solve is cloth settling against
+// cloth, as in a static scene, where the paper's step goes on without further passes: there only an
+// obstacle's push holds. (GarmentCode's jumpsuit sewn on the standing man, its layers kept apart by
+// the solve and pulled together by its stitches, otherwise ran a pass in every step that moved
+// nothing: GarmentOnMan.ClothSettlingOnTheStandingManRunsNoFurtherBoundPasses.)
 RC_HD uint32_t stage_held(const StepView& s, uint32_t i, bool every_clamp) {
-  return (s.flags[i] & kFlagClamped) && (every_clamp || (s.flags[i] & (kFlagPushed | kFlagContact))) ? 1u : 0u;
+  if (!(s.flags[i] & kFlagClamped)) return 0u;
+  if (every_clamp || (s.flags[i] & kFlagPushed)) return 1u;
+  return (s.flags[i] & kFlagContact) && s.counters->obstacle_move != 0u ? 1u : 0u;
 }
 
 // Before the first clamp: every vertex's goal (position and velocity).
@@ -461,11 +468,14 @@ RC_HD void stage_save_goal(const StepView& s, uint32_t i) {
   s.v_goal[i] = s.v_next[i];
 }
 
-// One thread: another pass runs only if the last one held a pushed vertex back.
+// One thread: another pass runs only if the last one held a pushed vertex back, and (after the
+// first) moved a vertex: a pass that moved none leaves every vertex where it started, so the next
+// would refresh at the same positions and clamp the same moves, changing nothing.
 RC_HD void stage_bound_pass_begin(const StepView& s) {
   StepCounters* c = s.counters;
-  c->pass_active = c->held > 0u ? 1u : 0u;
+  c->pass_active = c->held > 0u && (c->bound_passes == 0u || c->pass_moved != 0u) ? 1u : 0u;
   c->held = 0u;
+  c->pass_moved = 0u;
   c->escalate = 0u;
   if (!c->pass_active) {
     c->refresh = kRefreshNone;  // the pass's stages (which run on the GPU all the same) do nothing
@@ -494,6 +504,8 @@ RC_HD uint32_t stage_bound_pass_clamp(const StepView& s, const StepView& m, uint
   const double got = sqrt(ddot(dvec(s.x_next[i]) - dvec(s.x[i]), dvec(s.x_next[i]) - dvec(s.x[i])));
   s.v_next[i] = s.v_goal[i] * float(want > 0.0 ? (got < want ? got / want : 1.0) : 1.0);
   if (clamped) s.flags[i] |= kFlagClamped;
+  const Vec3 a = s.x_next[i], b = s.x_mid[i];
+  if (a.x != b.x || a.y != b.y || a.z != b.z) atomic_store_one(&s.counters->pass_moved);
   return stage_held(s, i, every_clamp);
 }
 

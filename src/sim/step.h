@@ -87,7 +87,8 @@ void run_bound_passes(Exec& ex, const StepView& s, bool every_clamp) {
   const uint32_t n = s.model.num_vertices;
   StepView m = s;
   m.x = s.x_mid;
-  for (uint32_t pass = 1; pass < kBoundPasses && ex.peek(&c->held, 1u) > 0u; ++pass) {
+  for (uint32_t pass = 1; pass < kBoundPasses && ex.peek(&c->held, 1u) > 0u && (pass == 1 || ex.peek(&c->pass_moved, 1u) > 0u);
+       ++pass) {
     ex.for_each(Stage::Bound, 1, [s] RC_LAMBDA(uint32_t) { stage_bound_pass_begin(s); });
     ex.for_each(Stage::Bound, n, [s] RC_LAMBDA(uint32_t i) { stage_bound_pass_move(s, i); });
     ex.refit_cloth_at(s.x_mid, c);

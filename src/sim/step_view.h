@@ -37,6 +37,7 @@ inline constexpr uint32_t kRefreshNone = 0u, kRefreshPartial = 1u, kRefreshFull 
   X(contact_done, 0u)  /* 1 once a round found nothing to do: later rounds are skipped */                    \
   X(held, 0u)          /* pushed vertices the last clamp held back (run_bound_passes) */                     \
   X(pass_active, 0u)   /* 1 while a further pass of the bound runs */                                        \
+  X(pass_moved, 0u)    /* 1 when the last further pass moved a vertex (else the next would change nothing) */ \
   X(residual, 0u)      /* float bits: the implicit integrator's largest step in its last sweep (metres) */   \
   X(obstacle_move, 0u) /* float bits: the largest move of an obstacle vertex in this step (obstacle_reach) */ \
   X(bad_vertex, 0xFFFFFFFFu) /* smallest vertex that blew up */
