@@ -14,13 +14,13 @@ cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_
 cmake --build build-asan -j "$(nproc)"
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
-# A representative subset: the longest scenes (the contact scenes of test_contact.cpp, the skirt's
-# time-step sweep, the exact check's and the collision tests' longest drapes, the fabric tests'
-# cantilever and pull (the measured fabrics' too), the browser tests, the walking man's two longest
-# drapes (about a minute each under the sanitizers; the same step runs in the shorter skinned-body
-# tests here: an arm swinging fast through cloth, a weld while a body moves):
-# minutes each in Release, far more under the sanitizers)
-# run in the main suite only; every unit test and the shorter scenes of the same code run here.
+# A representative subset. The longest scenes run in the main suite only (minutes each in Release,
+# far more under the sanitizers): the contact scenes of test_contact.cpp, the skirt's time-step
+# sweep, the exact check's and the collision tests' longest drapes, the fabric tests' cantilever and
+# pull (the measured fabrics' too), the browser tests, and the walking man's two longest drapes
+# (about a minute each under the sanitizers; the same step runs here in the shorter skinned-body
+# tests: an arm swinging fast through cloth, a weld while a body moves). Every unit test and the
+# shorter scenes of the same code run here.
 # So do the Slurm test (daemons) and the batch test that kills a case halfway (timed on Release speed).
 ctest --test-dir build-asan --output-on-failure --no-tests=error -j 2 --timeout 1500 \
       -E 'ContactSolve(Implicit)?\.(BoxSliding|FastSphere|LayersSqueezed)|Holes\.CapeDoesNotSlip|WalkingSkirt\.(CleanWhereOneSidedContactFailed|DressesFromTheRestPose)|SkinnedBody\.ClothOnTheWalkingManStaysOutsideAndUncrossed|FabricTest\.(Cantilever|TensilePull)|Hinge\.EveryMeasuredFabricsCantilever|Membrane\.TrianglesPull|FabricCli\.CantileverAndTensile|ViewBrowser\.|ExactCheckScenes\.(StackedSheetsOnABox|EveryShippedSceneStartsClean|DefaultSceneFirstSecond|SphereSpinning)|BvhTrace\.DrapeWithTheBvh|Collision\.(ClothDroppedOnSphere|SphereMovingThroughCurtain)|Cli\.DefaultSceneShortened|SlurmBatch|Batch\.KilledCaseResumesFromItsCheckpoint|WalkingDressGc\.|Overlap\.TopOnTheWalkingMan' 

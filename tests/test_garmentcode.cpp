@@ -466,6 +466,8 @@ TEST(WalkingDressGc, ThePencilDressStartsOnTheManWithItsSeamsWeldedAndStaysClean
   ASSERT_EQ(test::step_checked(sim, 370, 37), "");
 }
 
+namespace {
+
 // GarmentCode's jumpsuit put on the man by scenes/garment_on_man.json, with `extra` added to its
 // obstacles.
 SceneDef jumpsuit_on_man(const std::string& extra = "") {
@@ -479,6 +481,8 @@ SceneDef jumpsuit_on_man(const std::string& extra = "") {
   text.insert(text.find(front) + front.size(), extra);
   return parse_scene(text, kSource + "/scenes/garment_on_man.json");
 }
+
+}  // namespace
 
 TEST(GarmentOnMan, ClothSettlingOnTheStandingManRunsNoFurtherBoundPasses) {
   // GarmentCode's jumpsuit put on the man while he stands (he is held for 1 s): its layers settle
