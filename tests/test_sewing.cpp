@@ -465,21 +465,82 @@ TEST(GarmentFit, ASkirtNarrowerThanTheLegsStanceIsWrappedAroundThem) {
   fs::remove_all(d);
 }
 
-TEST(GarmentFit, ADressPanelReachingAboveTheWaistIsNotWrapped) {
-  // The same straight panels, but from the knees to the neck (a dress): their rows above the waist
-  // would be laid on hulls that take in the arms and the neck, so they keep their flat placement.
-  const fs::path d = temp_dir("stance_dress");
+TEST(GarmentFit, ARobeReachingAboveTheWaistIsWrappedBelowItOnly) {
+  // The same straight panels, but from the knees to the neck, the front in two halves that meet at the
+  // middle unsewn (an open robe): below the waist they are wrapped around the legs as the skirt is (each
+  // front half from the middle to its side), so no stitch runs through a leg; above the waist line
+  // they keep their flat placement (hulls there would take in the arms and the neck), eased between.
+  const fs::path d = temp_dir("stance_robe");
   write(d / "body.obj", legs_apart_obj());
   std::string g = straight_skirt();
   for (size_t at = g.find("[23, 50], [-23, 50]"); at != std::string::npos; at = g.find("[23, 50], [-23, 50]"))
     g.replace(at, 19, "[23, 87], [-23, 87]");
+  const std::string front = g.substr(g.find("\"front\": {"), g.find("\"back\": {") - g.find("\"front\": {"));
+  std::string halves = front;
+  halves.replace(0, 7, "\"front_r\"");
+  halves.replace(halves.find("[-23, 0]"), 8, "[0, 0]");
+  halves.replace(halves.find("[-23, 87]"), 9, "[0, 87]");
+  std::string left = front;
+  left.replace(0, 7, "\"front_l\"");
+  left.replace(left.find("[23, 0]"), 7, "[0, 0]");
+  left.replace(left.find("[23, 87]"), 8, "[0, 87]");
+  g.replace(g.find(front), front.size(), halves + left);
+  const std::string stitches = R"([[{"panel": "front_r", "edge": 1}, {"panel": "back", "edge": 3}],
+                 [{"panel": "front_l", "edge": 3}, {"panel": "back", "edge": 1}]])";
+  const size_t st = g.find("\"stitches\": ") + 12;
+  g.replace(st, g.find("]]}", st) + 2 - st, stitches);
   write(d / "g.json", g);
   const SceneDef s = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
   ClothModel m = build_cloth_model(s);
   const ObstacleSet o = build_obstacles(s);
   const std::vector<PanelFit> fits = fit_garments(m, o, s);
-  ASSERT_EQ(fits.size(), 2u);
-  for (const PanelFit& f : fits) EXPECT_FALSE(f.wrapped) << f.panel;
+  ASSERT_EQ(fits.size(), 3u);
+  for (const PanelFit& f : fits) EXPECT_TRUE(f.wrapped) << f.panel;
+  ASSERT_GE(m.stitch_seam.size(), 20u);
+  size_t low = 0;
+  for (size_t k = 0; k < m.stitch_seam.size(); ++k) {
+    const Vec3 a = m.initial_positions[m.stitches[2 * k]], b = m.initial_positions[m.stitches[2 * k + 1]];
+    low += a.y < 0.8f;
+    EXPECT_FALSE(through_a_leg(a, b)) << "stitch " << k << " at y " << a.y;
+  }
+  EXPECT_GT(low, 3u);
+  // Each panel flat (one depth) above the waist line, curved round the legs below the crotch.
+  const std::vector<Vec3>& x = m.initial_positions;
+  for (const Piece& piece : m.pieces) {
+    float hi_lo = INFINITY, hi_hi = -INFINITY, lo_lo = INFINITY, lo_hi = -INFINITY;
+    for (uint32_t i = piece.first_vertex; i < piece.first_vertex + piece.vertex_count; ++i)
+      if (x[i].y > 1.25f) hi_lo = std::min(hi_lo, x[i].z), hi_hi = std::max(hi_hi, x[i].z);
+      else if (x[i].y < 0.7f) lo_lo = std::min(lo_lo, x[i].z), lo_hi = std::max(lo_hi, x[i].z);
+    EXPECT_LT(hi_hi - hi_lo, 1e-5f) << piece.name;
+    EXPECT_GT(lo_hi - lo_lo, 0.03f) << piece.name;
+  }
+  EXPECT_NO_THROW(Simulator sim(s));
+  fs::remove_all(d);
+}
+
+TEST(GarmentFit, AFlounceSewnToAWrappedSkirtIsWrappedWithIt) {
+  // The straight skirt with a flounce 70 cm wide (wider than the stance: not wrapped on its own) sewn
+  // under each panel's hem: wrapped with the skirt, else the skirt's sides, curved round the legs, go
+  // through it where the two are sewn.
+  const fs::path d = temp_dir("stance_flounce");
+  write(d / "body.obj", legs_apart_obj());
+  std::string g = straight_skirt();
+  const std::string wide = R"("vertices": [[-35, 0], [35, 0], [35, 12], [-35, 12]],
+    "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}])";
+  const std::string flounces = R"("flounce_f": {"translation": [0, 46.8, 20], "rotation": [0, 0, 0], )" + wide +
+                               R"(}, "flounce_b": {"translation": [0, 46.8, -20], "rotation": [0, 180, 0], )" + wide + "},\n    ";
+  g.insert(g.find("\"front\": {"), flounces);
+  const size_t st = g.find("\"stitches\": [") + 13;
+  g.insert(st, R"([{"panel": "front", "edge": 0}, {"panel": "flounce_f", "edge": 2}],
+                 [{"panel": "back", "edge": 0}, {"panel": "flounce_b", "edge": 2}], )");
+  write(d / "g.json", g);
+  const SceneDef s = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
+  ClothModel m = build_cloth_model(s);
+  const ObstacleSet o = build_obstacles(s);
+  const std::vector<PanelFit> fits = fit_garments(m, o, s);
+  ASSERT_EQ(fits.size(), 4u);
+  for (const PanelFit& f : fits) EXPECT_TRUE(f.wrapped) << f.panel;
+  EXPECT_NO_THROW(Simulator sim(s));
   fs::remove_all(d);
 }
 

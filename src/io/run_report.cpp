@@ -27,10 +27,13 @@ nlohmann::json seams_json(const RunReport& r, Simulator& sim) {
   j["largest_gap_at_close_time"] = at_close ? nlohmann::json(at_close->seam_gap) : nlohmann::json(nullptr);
   j["largest_gap_at_end"] = r.frames.empty() ? 0.0 : r.frames.back().seam_gap;
   nlohmann::json open = nlohmann::json::array();
-  for (const SeamGap& g : seam_gaps(sim.model(), sim.positions()))
+  for (const SeamGap& g : seam_gaps(sim.model(), sim.positions(), tol))
     if (g.largest > tol) {
       const SeamDef& sd = s.seams[g.seam];
-      open.push_back({{"seam", g.seam}, {"a", sd.a.panel}, {"b", sd.b.panel}, {"largest_gap", g.largest}});
+      // Where the widest stitch is (its middle), and how many of the seam's stitches are open.
+      const Vec3 mid = (g.a + g.b) * 0.5f;
+      open.push_back({{"seam", g.seam}, {"a", sd.a.panel}, {"b", sd.b.panel}, {"largest_gap", g.largest},
+                      {"largest_gap_at", {mid.x, mid.y, mid.z}}, {"open_stitches", g.open}, {"stitches", g.stitches}});
     }
   j["open_at_end"] = open;
   return j;

@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
+#include <tuple>
 #include <unordered_map>
 
 #include "check/exact_check.h"
@@ -313,8 +315,10 @@ HullHalf hull_half(std::vector<Point2> pts, bool front, double mid, double margi
 // the other panel's sides end, so the stitches start short and outside the legs. Where the panel is
 // narrower than that it starts stretched (at most kMaxStanceWiden; its rest lengths ease from the
 // stretched ones to the pattern's as the seams close, as every spring's do); where wider, the hull is
-// scaled up to fit it. Only panels below `top` (skirts' panels) are wrapped. Returns the largest
-// stretch per panel (at least 1 where wrapped, 0 where not).
+// scaled up to fit it. Panels are wrapped below `top`; a panel that reaches above it (a robe's) is
+// eased from its wrapped place kWrapEase below `top` to its own at `top`. Panels on one side sewn to
+// each other along the middle (a robe's front halves) are wrapped as one. Returns the largest stretch
+// per panel (at least 1 where wrapped, 0 where not).
 template <class Panels>
 std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Body& body, const BodyFrame& f,
                                    double mid, double front_mid, float margin, double top) {
@@ -327,11 +331,24 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
     return it->second;
   };
   auto stance_at = [&](int64_t k) -> const Stance& { return cut_of(k).central; };
+  // The front (or back) half of the hull of the cuts within two bins of k (so that it changes smoothly
+  // from row to row), grown by `grow`, made once.
+  std::map<std::tuple<int64_t, bool, float>, HullHalf> halves;
+  auto half_at = [&](int64_t k, bool front, float grow) -> const HullHalf& {
+    auto it = halves.find({k, front, grow});
+    if (it == halves.end()) {
+      std::vector<Point2> pts;
+      for (int64_t j = k - 2; j <= k + 2; ++j) central_points(cut_of(j), pts);
+      it = halves.emplace(std::make_tuple(k, front, grow), hull_half(std::move(pts), front, mid, grow)).first;
+    }
+    return it->second;
+  };
   // A panel's vertices and its extent either side of the middle per bin of height.
   struct Rows {
     std::vector<uint32_t> pv;
     std::unordered_map<int64_t, std::pair<double, double>> extent;
-    bool front = false;
+    bool front = false, reaches_top = false;  // reaches above `top` (a robe's panel, eased back there)
+    bool from_middle = false;  // reaches above `top` and the middle on the legs (a robe's open half)
     double depth = 0;  // mean distance in front of (behind) the body's middle
     std::pair<double, double> row(int64_t k) const {  // the extent within two bins of k
       double lo = INFINITY, hi = -INFINITY;
@@ -341,15 +358,13 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
     }
   };
   std::vector<float> stretched(panels.size(), 0.0f);
-  std::vector<std::pair<size_t, Rows>> wrapped;  // (index into panels, rows)
+  // Every panel that faces the front or the back, with its rows.
+  std::vector<std::pair<size_t, Rows>> facing;  // (index into panels, rows)
   for (size_t n = 0; n < panels.size(); ++n) {
     Rows r;
     std::vector<uint32_t> pt;
     const Vec3 normal = panel_geometry(m, m.pieces[panels[n]], r.pv, pt);
     if (std::fabs(dot(normal, f.front)) < 0.7f) continue;
-    // Skirt panels only: a panel reaching above `top` (a dress's front from the shoulders) would have
-    // its upper rows laid on hulls that take in the arms or the neck.
-    if (std::any_of(r.pv.begin(), r.pv.end(), [&](uint32_t i) { return double(m.initial_positions[i].y) > top; })) continue;
     double front_sum = 0;
     for (uint32_t i : r.pv) {
       const double s = double(dot(m.initial_positions[i], f.side)) - mid;
@@ -357,69 +372,160 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
       auto [it, fresh] = r.extent.try_emplace(key_of(double(m.initial_positions[i].y)), s, s);
       it->second.first = std::min(it->second.first, s), it->second.second = std::max(it->second.second, s);
     }
-    // Wrapped where its whole rows (at least 0.8 of its median width on the legs: not where a curved
-    // hem or waist leaves a short one) do not clear the legs' outer sides by the margin, over
+    const double mean_front = front_sum / double(r.pv.size());
+    r.front = mean_front > front_mid, r.depth = std::fabs(mean_front - front_mid);
+    r.reaches_top = std::any_of(r.pv.begin(), r.pv.end(), [&](uint32_t i) { return double(m.initial_positions[i].y) > top; });
+    facing.emplace_back(n, std::move(r));
+  }
+  // Panels on one side sewn along the middle, joined: their rows become the group's.
+  std::vector<size_t> group(facing.size());
+  for (size_t a = 0; a < facing.size(); ++a) group[a] = a;
+  auto root = [&](size_t a) {
+    while (group[a] != a) a = group[a] = group[group[a]];
+    return a;
+  };
+  // Facing panels on one side sewn to each other -> whether every stitch between them is near the middle.
+  std::map<std::pair<size_t, size_t>, bool> sewn_on_side;
+  {
+    std::unordered_map<uint32_t, size_t> panel_of;  // model vertex -> index into facing
+    for (size_t a = 0; a < facing.size(); ++a)
+      for (uint32_t i : facing[a].second.pv) panel_of[i] = a;
+    for (size_t k = 0; k + 1 < m.stitches.size(); k += 2) {
+      const auto ia = panel_of.find(m.stitches[k]), ib = panel_of.find(m.stitches[k + 1]);
+      if (ia == panel_of.end() || ib == panel_of.end() || ia->second == ib->second) continue;
+      if (facing[ia->second].second.front != facing[ib->second].second.front) continue;
+      const auto key = std::minmax(ia->second, ib->second);
+      const bool near = std::fabs(double(dot(m.initial_positions[m.stitches[k]], f.side)) - mid) < kMiddleSeam &&
+                        std::fabs(double(dot(m.initial_positions[m.stitches[k + 1]], f.side)) - mid) < kMiddleSeam;
+      auto [it, fresh] = sewn_on_side.try_emplace(key, near);
+      it->second = it->second && near;
+    }
+    for (const auto& [key, near] : sewn_on_side)
+      if (near) group[root(key.first)] = root(key.second);
+  }
+  std::unordered_map<size_t, Rows> group_rows;  // by root: the members' rows merged
+  for (size_t a = 0; a < facing.size(); ++a) {
+    Rows& g = group_rows[root(a)];
+    for (const auto& [k, e] : facing[a].second.extent) {
+      auto [it, fresh] = g.extent.try_emplace(k, e);
+      it->second.first = std::min(it->second.first, e.first), it->second.second = std::max(it->second.second, e.second);
+    }
+  }
+  std::vector<std::pair<size_t, Rows>> wrapped;  // (index into panels, rows: the group's extent)
+  for (size_t a = 0; a < facing.size(); ++a) {
+    const Rows& g = group_rows[root(a)];
+    // Wrapped where the group's whole rows (at least 0.8 of its median width on the legs: not where a
+    // curved hem or waist leaves a short one) do not clear the legs' outer sides by the margin, over
     // kNarrowHeight of height at least.
+    bool reaches_top = false;
+    for (size_t b = 0; b < facing.size(); ++b) reaches_top |= root(b) == root(a) && facing[b].second.reaches_top;
     std::vector<double> widths;
-    for (const auto& [k, e] : r.extent)
+    for (const auto& [k, e] : g.extent)
       if (stance_at(k).legs) widths.push_back(e.second - e.first);
     if (widths.empty()) continue;
     std::nth_element(widths.begin(), widths.begin() + widths.size() / 2, widths.end());
     const double median_width = widths[widths.size() / 2];
     size_t narrow_rows = 0;
-    for (const auto& [k, e] : r.extent) {
+    for (const auto& [k, e] : g.extent) {
       const Stance& st = stance_at(k);
       if (!st.legs || e.second - e.first < 0.8 * median_width) continue;
-      const auto [lo, hi] = r.row(k);
+      const auto [lo, hi] = g.row(k);
       const double out_hi = st.hi - mid, out_lo = st.lo - mid;
-      if ((hi > 0.5 * out_hi && hi < out_hi + margin) || (lo < 0.5 * out_lo && lo > out_lo - margin)) ++narrow_rows;
+      if ((hi > 0.5 * out_hi && hi < out_hi + margin) || (lo < 0.5 * out_lo && lo > out_lo - margin)) {
+        ++narrow_rows;
+      } else if (reaches_top) {
+        // A panel from the shoulders hangs slack: it is wrapped unless its sides reach kWrapSlack times
+        // the hull's half round the legs (a robe whose sides clear the legs by less: its seams, closing,
+        // meet across them).
+        const HullHalf& half = half_at(k, facing[a].second.front, margin);
+        if (!half.empty() && ((hi > 0.5 * out_hi && hi < kWrapSlack * half.length_right()) ||
+                              (lo < 0.5 * out_lo && -lo < kWrapSlack * half.length_left())))
+          ++narrow_rows;
+      }
     }
     if (double(narrow_rows) * bin < kNarrowHeight) continue;
-    const double mean_front = front_sum / double(r.pv.size());
-    r.front = mean_front > front_mid, r.depth = std::fabs(mean_front - front_mid);
-    wrapped.emplace_back(n, std::move(r));
+    Rows r = facing[a].second;
+    r.extent = g.extent;
+    // (A panel from above `top` only, four fifths of its rows where he stands on two legs: a robe's
+    // neckline leaves the middle higher up, its hem may curve; a pant leg leaves it below the crotch.
+    // A skirt's or a pant leg's flounce that reaches the middle is not.)
+    size_t on_legs = 0, at_middle = 0;
+    for (const auto& [k, e] : r.extent)
+      if (stance_at(k).legs) {
+        const auto [lo, hi] = r.row(k);
+        ++on_legs;
+        at_middle += std::min(std::fabs(lo), std::fabs(hi)) < kMiddleSeam || (lo < 0 && hi > 0);
+      }
+    r.from_middle = r.reaches_top && on_legs > 0 && 5 * at_middle >= 4 * on_legs;
+    wrapped.emplace_back(facing[a].first, std::move(r));
   }
-  // Layers keep their order: on each side, a panel placed farther out is wrapped kWrapLayer farther
-  // out than the one inside it.
-  for (auto& [n, r] : wrapped) {
-    size_t inside = 0;
-    for (const auto& [n2, r2] : wrapped) inside += r2.front == r.front && r2.depth < r.depth;
-    const float grow = margin + float(inside * kWrapLayer);
-    std::unordered_map<int64_t, HullHalf> halves;
-    std::vector<Vec3> moved(r.pv.size());
+  // A panel's wrapped place, vertex by vertex, on hulls grown by `grow`, and its largest stretch (0:
+  // no vertex is moved, its rows neither cross the middle nor, for a robe's half, reach it).
+  auto wrap = [&](const Rows& r, float grow, std::vector<Vec3>& moved) {
+    moved.resize(r.pv.size());
     float most = 0.0f;
     for (size_t v = 0; v < r.pv.size(); ++v) {
       const Vec3 x = m.initial_positions[r.pv[v]];
       moved[v] = x;
       // Rows below the body's feet are laid on the hull of its lowest rows.
       const int64_t k = std::max<int64_t>(key_of(double(x.y)), 2);
-      auto it = halves.find(k);
-      if (it == halves.end()) {
-        // The hull of the cuts within two bins, so that it changes smoothly from row to row.
-        std::vector<Point2> pts;
-        for (int64_t j = k - 2; j <= k + 2; ++j) central_points(cut_of(j), pts);
-        it = halves.emplace(k, hull_half(std::move(pts), r.front, mid, grow)).first;
-      }
-      const HullHalf& half = it->second;
+      const HullHalf& half = half_at(k, r.front, grow);
       if (half.empty()) continue;
       const auto [lo, hi] = r.row(key_of(double(x.y)));
       const double room_r = half.length_right() - kWrapGap, room_l = half.length_left() - kWrapGap;
-      // Only a panel across the middle (a pant leg's, from near the middle to one side, is not).
-      if (!(room_r > 0 && room_l > 0 && hi > 0 && lo < 0)) continue;
+      // Only a panel (or a group) across the middle, or from the middle to one side (a robe's open
+      // front half); a pant leg's, from near the middle to one side, is not.
+      if (!(room_r > 0 && room_l > 0 && ((hi > 0 && lo < 0) || (r.from_middle && hi > -kMiddleSeam && lo < kMiddleSeam && hi - lo > kMiddleSeam)))) continue;
       // Scaled up where the panel is wider than the half; else stretched to reach its sides.
       const double scale = std::max({1.0, hi / room_r, -lo / room_l});
       const double s = double(dot(x, f.side)) - mid;
-      const double reach = s >= 0 ? room_r * scale / hi : room_l * scale / -lo;  // arc per metre of panel
+      const double reach = s >= 0 ? room_r * scale / std::max(hi, 1e-6) : room_l * scale / std::max(-lo, 1e-6);  // arc per metre
       // Stretched only where the body stands on two legs; above, a row narrower than the hull's
-      // half (a waist's curve) is laid on it as it is.
-      const double factor = std::min(reach, stance_at(k).legs ? double(kMaxStanceWiden) : 1.0);
+      // half (a waist's curve) is laid on it as it is; eased from one to the other over the five bins
+      // about the crotch (a step there folds the panel where its rows curve round the hips).
+      double legs = 0;
+      for (int64_t j = k - 2; j <= k + 2; ++j) legs += stance_at(j).legs ? 0.2 : 0.0;
+      const double factor = std::min(reach, 1.0 + legs * (kMaxStanceWiden - 1.0));
       const Point2 q = half.at(s * factor / scale, scale);
-      moved[v] = f.side * float(q.x()) + f.front * float(q.y()) + kUp * x.y;
-      most = std::max(most, float(factor));
+      // Eased back to its own place up to `top` (a panel that reaches above it).
+      const float w = r.reaches_top ? float(std::clamp((top - double(x.y)) / kWrapEase, 0.0, 1.0)) : 1.0f;
+      moved[v] = x + (f.side * float(q.x()) + f.front * float(q.y()) + kUp * x.y - x) * w;
+      if (w > 0) most = std::max(most, float(factor));
     }
-    for (size_t v = 0; v < r.pv.size(); ++v) m.initial_positions[r.pv[v]] = moved[v];
-    stretched[n] = most;
+    return most;
+  };
+  // Only panels that the wrap moves; then a panel below `top` sewn to one of those on its side (a
+  // flounce at a wrapped skirt's hem, its waistband) is wrapped too, else the wrapped panel's sides,
+  // curved round the legs, go through it.
+  std::vector<Vec3> moved;
+  std::erase_if(wrapped, [&](const auto& w) { return wrap(w.second, margin, moved) == 0.0f; });
+  std::vector<bool> is_wrapped(facing.size(), false);
+  for (size_t a = 0; a < facing.size(); ++a)
+    for (const auto& [n, r] : wrapped) is_wrapped[a] = is_wrapped[a] || n == facing[a].first;
+  for (bool more = true; more;) {
+    more = false;
+    for (const auto& [key, near] : sewn_on_side)
+      for (auto [a, b] : {key, std::pair<size_t, size_t>{key.second, key.first}})
+        if (is_wrapped[a] && !is_wrapped[b] && !facing[b].second.reaches_top) {
+          Rows r = facing[b].second;
+          r.extent = group_rows[root(b)].extent;
+          is_wrapped[b] = true;
+          if (wrap(r, margin, moved) == 0.0f) continue;
+          wrapped.emplace_back(facing[b].first, std::move(r));
+          more = true;
+        }
   }
+  // Layers keep their order: on each side, a panel placed farther out is wrapped kWrapLayer farther
+  // out than the one inside it.
+  std::vector<std::vector<Vec3>> places(wrapped.size());
+  for (size_t w = 0; w < wrapped.size(); ++w) {
+    const auto& [n, r] = wrapped[w];
+    size_t inside = 0;
+    for (const auto& [n2, r2] : wrapped) inside += r2.front == r.front && r2.depth < r.depth;
+    stretched[n] = wrap(r, margin + float(inside * kWrapLayer), places[w]);
+  }
+  for (size_t w = 0; w < wrapped.size(); ++w)
+    for (size_t v = 0; v < wrapped[w].second.pv.size(); ++v) m.initial_positions[wrapped[w].second.pv[v]] = places[w][v];
   return stretched;
 }
 

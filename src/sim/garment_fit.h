@@ -43,8 +43,16 @@ inline constexpr double kStanceMargin = 0.01, kMaxStanceWiden = 1.4;
 // panel is wrapped where its whole rows are narrower than the stance over this much height (metres);
 // one placed outside another on the same side is wrapped this much farther out (metres).
 inline constexpr double kWrapGap = 0.015, kNarrowHeight = 0.05, kWrapLayer = 0.015;
-// Only panels that end below the body's waist and this much (metres) are wrapped: a skirt's.
-inline constexpr double kWrapAboveWaist = 0.1;
+// Panels are wrapped below the body's waist and this much (metres); a panel that reaches higher (a
+// robe's, a dress's from the shoulders) is wrapped in full this much (metres) below that line and eased
+// from there to its place at the line.
+inline constexpr double kWrapAboveWaist = 0.1, kWrapEase = 0.2;
+// Panels on one side sewn to each other along the body's middle (a robe's front halves: every stitch
+// between them within this many metres of the middle) are wrapped as one panel across it.
+inline constexpr double kMiddleSeam = 0.03;
+// A panel that reaches above the waist line is wrapped where its sides, either side of the middle,
+// reach less than this many times the length of the hull's front (or back) half on that side.
+inline constexpr double kWrapSlack = 1.25;
 // A garment whose top is below this (metres, in its file's frame) is in the older generator's frame
 // (waist at y = 0, T-pose) and is lifted by kGarmentCodeWaist before the fit.
 inline constexpr double kOlderFrameTop = 0.75;

@@ -11,13 +11,16 @@ float seam_close_tolerance(const SceneDef& scene) {
   return scene.sewing.close_tolerance.value_or(2.0f * scene.collision.thickness);
 }
 
-std::vector<SeamGap> seam_gaps(const ClothModel& model, const std::vector<Vec3>& x) {
+std::vector<SeamGap> seam_gaps(const ClothModel& model, const std::vector<Vec3>& x, float tolerance) {
   std::map<uint32_t, SeamGap> by_seam;
   for (size_t k = 0; k < model.stitch_seam.size(); ++k) {
     SeamGap& g = by_seam[model.stitch_seam[k]];
     g.seam = model.stitch_seam[k];
     ++g.stitches;
-    g.largest = std::max(g.largest, length(x[model.stitches[2 * k]] - x[model.stitches[2 * k + 1]]));
+    const Vec3 a = x[model.stitches[2 * k]], b = x[model.stitches[2 * k + 1]];
+    const float gap = length(a - b);
+    g.open += gap > tolerance;
+    if (gap > g.largest) g.largest = gap, g.a = a, g.b = b;
   }
   std::vector<SeamGap> out;
   for (const auto& [seam, g] : by_seam) out.push_back(g);
