@@ -316,8 +316,9 @@ HullHalf hull_half(std::vector<Point2> pts, bool front, double mid, double margi
 // narrower than that it starts stretched (at most kMaxStanceWiden; its rest lengths ease from the
 // stretched ones to the pattern's as the seams close, as every spring's do); where wider, the hull is
 // scaled up to fit it. Panels are wrapped below `top`; a panel that reaches above it (a robe's) is
-// eased from its wrapped place kWrapEase below `top` to its own at `top`. Panels on one side sewn to
-// each other along the middle (a robe's front halves) are wrapped as one. Returns the largest stretch
+// eased from its wrapped place kWrapEase below `top` to its own at `top`; a robe's open half is laid
+// from the middle. Panels on one side sewn to each other along the middle are wrapped as one, and a
+// panel sewn to a wrapped one on its side (a flounce at its hem) with it. Returns the largest stretch
 // per panel (at least 1 where wrapped, 0 where not).
 template <class Panels>
 std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Body& body, const BodyFrame& f,
@@ -446,9 +447,10 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
     if (double(narrow_rows) * bin < kNarrowHeight) continue;
     Rows r = facing[a].second;
     r.extent = g.extent;
-    // (A panel from above `top` only, four fifths of its rows where he stands on two legs: a robe's
-    // neckline leaves the middle higher up, its hem may curve; a pant leg leaves it below the crotch.
-    // A skirt's or a pant leg's flounce that reaches the middle is not.)
+    // A robe's open half, laid from the middle: a panel from above `top` whose rows where he stands on
+    // two legs reach the middle, four fifths of them (its neckline leaves the middle higher up, its hem
+    // may curve). A pant leg leaves the middle below the crotch; a flounce that reaches it does not
+    // reach above `top`.
     size_t on_legs = 0, at_middle = 0;
     for (const auto& [k, e] : r.extent)
       if (stance_at(k).legs) {

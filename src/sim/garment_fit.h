@@ -47,8 +47,10 @@ inline constexpr double kWrapGap = 0.015, kNarrowHeight = 0.05, kWrapLayer = 0.0
 // robe's, a dress's from the shoulders) is wrapped in full this much (metres) below that line and eased
 // from there to its place at the line.
 inline constexpr double kWrapAboveWaist = 0.1, kWrapEase = 0.2;
-// Panels on one side sewn to each other along the body's middle (a robe's front halves: every stitch
-// between them within this many metres of the middle) are wrapped as one panel across it.
+// Panels on one side sewn to each other along the body's middle (front halves sewn at the centre: every
+// stitch between them within this many metres of the middle) are wrapped as one panel across it; a
+// panel from above the waist whose rows on the legs come this near the middle (a robe's open half) is
+// laid from the middle to its side.
 inline constexpr double kMiddleSeam = 0.03;
 // A panel that reaches above the waist line is wrapped where its sides, either side of the middle,
 // reach less than this many times the length of the hull's front (or back) half on that side.
