@@ -133,16 +133,27 @@ TEST(Sewing, StitchesCloseTwoPanelsPlacedTenCentimetresApartWithoutCrossing) {
   for (uint32_t i = 0; i < m.num_vertices(); ++i) ASSERT_EQ(m.alias[i], i);
   ASSERT_GE(m.stitch_seam.size(), 9u);
   EXPECT_NEAR(largest_stitch_gap(m, sim.positions()), 0.1f, 1e-5f);
+  // The report of an open seam: every stitch open, the widest one's two ends (run.json's
+  // largest_gap_at is their middle).
+  const float tol = seam_close_tolerance(s);
+  const std::vector<SeamGap> open = seam_gaps(m, sim.positions(), tol);
+  ASSERT_EQ(open.size(), 1u);
+  EXPECT_EQ(open[0].open, open[0].stitches);
+  EXPECT_EQ(size_t(open[0].stitches), m.stitch_seam.size());
+  EXPECT_NEAR(length(open[0].a - open[0].b), open[0].largest, 1e-6f);
+  EXPECT_NEAR(open[0].largest, 0.1f, 1e-5f);
   // Every step checked exactly while the seam closes, then held for 0.2 s more.
   ASSERT_EQ(test::step_checked(sim, 3000, 1), "");
-  const float tol = seam_close_tolerance(s);
   EXPECT_LE(largest_stitch_gap(m, sim.positions()), tol);
   // Closed by the end of the close time, every stitch was welded into one vertex then.
   EXPECT_EQ(sim.stitches_welded(), m.stitch_seam.size());
   size_t joined = 0;
   for (uint32_t i = 0; i < m.num_vertices(); ++i) joined += m.alias[i] != i;
   EXPECT_EQ(joined, m.stitch_seam.size());
-  for (const SeamGap& g : seam_gaps(m, sim.positions())) EXPECT_LE(g.largest, tol) << "seam " << g.seam;
+  for (const SeamGap& g : seam_gaps(m, sim.positions(), tol)) {
+    EXPECT_LE(g.largest, tol) << "seam " << g.seam;
+    EXPECT_EQ(g.open, 0u) << "seam " << g.seam;
+  }
   // The two panels stay side by side: the sewn width is the two widths.
   float lo = 1e9f, hi = -1e9f;
   for (const Vec3& p : sim.positions()) lo = std::min(lo, p.x), hi = std::max(hi, p.x);
