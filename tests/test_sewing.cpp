@@ -123,6 +123,35 @@ bool through_a_leg(Vec3 a, Vec3 b) {
   return false;
 }
 
+// A garment file fitted on the legs-apart body (in folder d): its scene, its model after the fit and
+// the fit of each panel.
+struct FittedOnLegs {
+  SceneDef scene;
+  ClothModel model;
+  std::vector<PanelFit> fits;
+};
+FittedOnLegs fit_on_legs(const fs::path& d, const std::string& garment) {
+  write(d / "body.obj", legs_apart_obj());
+  write(d / "g.json", garment);
+  FittedOnLegs r;
+  r.scene = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
+  r.model = build_cloth_model(r.scene);
+  const ObstacleSet o = build_obstacles(r.scene);
+  r.fits = fit_garments(r.model, o, r.scene);
+  return r;
+}
+
+// The stitches that start beside the legs (below 0.8 m); each one that starts through a leg fails.
+size_t stitches_beside_the_legs(const ClothModel& m) {
+  size_t low = 0;
+  for (size_t k = 0; k < m.stitch_seam.size(); ++k) {
+    const Vec3 a = m.initial_positions[m.stitches[2 * k]], b = m.initial_positions[m.stitches[2 * k + 1]];
+    low += a.y < 0.8f;
+    EXPECT_FALSE(through_a_leg(a, b)) << "stitch " << k << " at y " << a.y;
+  }
+  return low;
+}
+
 }  // namespace
 
 TEST(Sewing, StitchesCloseTwoPanelsPlacedTenCentimetresApartWithoutCrossing) {
@@ -453,26 +482,15 @@ TEST(GarmentFit, ASkirtNarrowerThanTheLegsStanceIsWrappedAroundThem) {
   // Placed flat, its sides stand in front of and behind the legs: the stitches between them run
   // through the legs. Wrapped around the legs' hull, stretched to reach its sides, they do not.
   const fs::path d = temp_dir("stance");
-  write(d / "body.obj", legs_apart_obj());
-  write(d / "g.json", straight_skirt());
-  const SceneDef s = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
-  ClothModel m = build_cloth_model(s);
-  const ObstacleSet o = build_obstacles(s);
-  const std::vector<PanelFit> fits = fit_garments(m, o, s);
-  ASSERT_EQ(fits.size(), 2u);
-  for (const PanelFit& f : fits) {
-    EXPECT_TRUE(f.wrapped) << f.panel;
-    EXPECT_GT(f.stretched, 1.05f) << f.panel;
-    EXPECT_LE(f.stretched, float(kMaxStanceWiden) + 1e-6f) << f.panel;
+  const FittedOnLegs f = fit_on_legs(d, straight_skirt());
+  ASSERT_EQ(f.fits.size(), 2u);
+  for (const PanelFit& p : f.fits) {
+    EXPECT_TRUE(p.wrapped) << p.panel;
+    EXPECT_GT(p.stretched, 1.05f) << p.panel;
+    EXPECT_LE(p.stretched, float(kMaxStanceWiden) + 1e-6f) << p.panel;
   }
-  size_t low = 0;
-  for (size_t k = 0; k < m.stitch_seam.size(); ++k) {
-    const Vec3 a = m.initial_positions[m.stitches[2 * k]], b = m.initial_positions[m.stitches[2 * k + 1]];
-    low += a.y < 0.8f;
-    EXPECT_FALSE(through_a_leg(a, b)) << "stitch " << k << " at y " << a.y;
-  }
-  EXPECT_GT(low, 3u);  // stitches beside the legs, not only above them
-  EXPECT_NO_THROW(Simulator sim(s));
+  EXPECT_GT(stitches_beside_the_legs(f.model), 3u);  // stitches beside the legs, not only above them
+  EXPECT_NO_THROW(Simulator sim(f.scene));
   fs::remove_all(d);
 }
 
@@ -482,7 +500,6 @@ TEST(GarmentFit, ARobeReachingAboveTheWaistIsWrappedBelowItOnly) {
   // front half from the middle to its side), so no stitch runs through a leg; above the waist line
   // they keep their flat placement (hulls there would take in the arms and the neck), eased between.
   const fs::path d = temp_dir("stance_robe");
-  write(d / "body.obj", legs_apart_obj());
   std::string g = straight_skirt();
   for (size_t at = g.find("[23, 50], [-23, 50]"); at != std::string::npos; at = g.find("[23, 50], [-23, 50]"))
     g.replace(at, 19, "[23, 87], [-23, 87]");
@@ -500,24 +517,14 @@ TEST(GarmentFit, ARobeReachingAboveTheWaistIsWrappedBelowItOnly) {
                  [{"panel": "front_l", "edge": 3}, {"panel": "back", "edge": 1}]])";
   const size_t st = g.find("\"stitches\": ") + 12;
   g.replace(st, g.find("]]}", st) + 2 - st, stitches);
-  write(d / "g.json", g);
-  const SceneDef s = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
-  ClothModel m = build_cloth_model(s);
-  const ObstacleSet o = build_obstacles(s);
-  const std::vector<PanelFit> fits = fit_garments(m, o, s);
-  ASSERT_EQ(fits.size(), 3u);
-  for (const PanelFit& f : fits) EXPECT_TRUE(f.wrapped) << f.panel;
-  ASSERT_GE(m.stitch_seam.size(), 20u);
-  size_t low = 0;
-  for (size_t k = 0; k < m.stitch_seam.size(); ++k) {
-    const Vec3 a = m.initial_positions[m.stitches[2 * k]], b = m.initial_positions[m.stitches[2 * k + 1]];
-    low += a.y < 0.8f;
-    EXPECT_FALSE(through_a_leg(a, b)) << "stitch " << k << " at y " << a.y;
-  }
-  EXPECT_GT(low, 3u);
+  const FittedOnLegs f = fit_on_legs(d, g);
+  ASSERT_EQ(f.fits.size(), 3u);
+  for (const PanelFit& p : f.fits) EXPECT_TRUE(p.wrapped) << p.panel;
+  ASSERT_GE(f.model.stitch_seam.size(), 20u);
+  EXPECT_GT(stitches_beside_the_legs(f.model), 3u);
   // Each panel flat (one depth) above the waist line, curved round the legs below the crotch.
-  const std::vector<Vec3>& x = m.initial_positions;
-  for (const Piece& piece : m.pieces) {
+  const std::vector<Vec3>& x = f.model.initial_positions;
+  for (const Piece& piece : f.model.pieces) {
     float hi_lo = INFINITY, hi_hi = -INFINITY, lo_lo = INFINITY, lo_hi = -INFINITY;
     for (uint32_t i = piece.first_vertex; i < piece.first_vertex + piece.vertex_count; ++i)
       if (x[i].y > 1.25f) hi_lo = std::min(hi_lo, x[i].z), hi_hi = std::max(hi_hi, x[i].z);
@@ -525,7 +532,7 @@ TEST(GarmentFit, ARobeReachingAboveTheWaistIsWrappedBelowItOnly) {
     EXPECT_LT(hi_hi - hi_lo, 1e-5f) << piece.name;
     EXPECT_GT(lo_hi - lo_lo, 0.03f) << piece.name;
   }
-  EXPECT_NO_THROW(Simulator sim(s));
+  EXPECT_NO_THROW(Simulator sim(f.scene));
   fs::remove_all(d);
 }
 
@@ -534,7 +541,6 @@ TEST(GarmentFit, AFlounceSewnToAWrappedSkirtIsWrappedWithIt) {
   // under each panel's hem: wrapped with the skirt, else the skirt's sides, curved round the legs, go
   // through it where the two are sewn.
   const fs::path d = temp_dir("stance_flounce");
-  write(d / "body.obj", legs_apart_obj());
   std::string g = straight_skirt();
   const std::string wide = R"("vertices": [[-35, 0], [35, 0], [35, 12], [-35, 12]],
     "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}])";
@@ -544,14 +550,10 @@ TEST(GarmentFit, AFlounceSewnToAWrappedSkirtIsWrappedWithIt) {
   const size_t st = g.find("\"stitches\": [") + 13;
   g.insert(st, R"([{"panel": "front", "edge": 0}, {"panel": "flounce_f", "edge": 2}],
                  [{"panel": "back", "edge": 0}, {"panel": "flounce_b", "edge": 2}], )");
-  write(d / "g.json", g);
-  const SceneDef s = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
-  ClothModel m = build_cloth_model(s);
-  const ObstacleSet o = build_obstacles(s);
-  const std::vector<PanelFit> fits = fit_garments(m, o, s);
-  ASSERT_EQ(fits.size(), 4u);
-  for (const PanelFit& f : fits) EXPECT_TRUE(f.wrapped) << f.panel;
-  EXPECT_NO_THROW(Simulator sim(s));
+  const FittedOnLegs f = fit_on_legs(d, g);
+  ASSERT_EQ(f.fits.size(), 4u);
+  for (const PanelFit& p : f.fits) EXPECT_TRUE(p.wrapped) << p.panel;
+  EXPECT_NO_THROW(Simulator sim(f.scene));
   fs::remove_all(d);
 }
 

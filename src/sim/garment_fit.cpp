@@ -404,22 +404,21 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
     for (const auto& [key, near] : sewn_on_side)
       if (near) group[root(key.first)] = root(key.second);
   }
-  std::unordered_map<size_t, Rows> group_rows;  // by root: the members' rows merged
+  std::unordered_map<size_t, Rows> group_rows;  // by root: the members' rows merged, whether one reaches `top`
   for (size_t a = 0; a < facing.size(); ++a) {
     Rows& g = group_rows[root(a)];
+    g.reaches_top = g.reaches_top || facing[a].second.reaches_top;
     for (const auto& [k, e] : facing[a].second.extent) {
       auto [it, fresh] = g.extent.try_emplace(k, e);
       it->second.first = std::min(it->second.first, e.first), it->second.second = std::max(it->second.second, e.second);
     }
   }
-  std::vector<std::pair<size_t, Rows>> wrapped;  // (index into panels, rows: the group's extent)
+  std::vector<std::pair<size_t, Rows>> wrapped;  // (index into facing, rows: the group's extent)
   for (size_t a = 0; a < facing.size(); ++a) {
     const Rows& g = group_rows[root(a)];
     // Wrapped where the group's whole rows (at least 0.8 of its median width on the legs: not where a
     // curved hem or waist leaves a short one) do not clear the legs' outer sides by the margin, over
     // kNarrowHeight of height at least.
-    bool reaches_top = false;
-    for (size_t b = 0; b < facing.size(); ++b) reaches_top |= root(b) == root(a) && facing[b].second.reaches_top;
     std::vector<double> widths;
     for (const auto& [k, e] : g.extent)
       if (stance_at(k).legs) widths.push_back(e.second - e.first);
@@ -434,7 +433,7 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
       const double out_hi = st.hi - mid, out_lo = st.lo - mid;
       if ((hi > 0.5 * out_hi && hi < out_hi + margin) || (lo < 0.5 * out_lo && lo > out_lo - margin)) {
         ++narrow_rows;
-      } else if (reaches_top) {
+      } else if (g.reaches_top) {
         // A panel from the shoulders hangs slack: it is wrapped unless its sides reach kWrapSlack times
         // the hull's half round the legs (a robe whose sides clear the legs by less: its seams, closing,
         // meet across them).
@@ -459,7 +458,7 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
         at_middle += std::min(std::fabs(lo), std::fabs(hi)) < kMiddleSeam || (lo < 0 && hi > 0);
       }
     r.from_middle = r.reaches_top && on_legs > 0 && 5 * at_middle >= 4 * on_legs;
-    wrapped.emplace_back(facing[a].first, std::move(r));
+    wrapped.emplace_back(a, std::move(r));
   }
   // A panel's wrapped place, vertex by vertex, on hulls grown by `grow`, and its largest stretch (0:
   // no vertex is moved, its rows neither cross the middle nor, for a robe's half, reach it).
@@ -501,30 +500,29 @@ std::vector<float> wrap_for_stance(ClothModel& m, const Panels& panels, const Bo
   // curved round the legs, go through it.
   std::vector<Vec3> moved;
   std::erase_if(wrapped, [&](const auto& w) { return wrap(w.second, margin, moved) == 0.0f; });
-  std::vector<bool> is_wrapped(facing.size(), false);
-  for (size_t a = 0; a < facing.size(); ++a)
-    for (const auto& [n, r] : wrapped) is_wrapped[a] = is_wrapped[a] || n == facing[a].first;
+  std::vector<bool> is_wrapped(facing.size(), false), tried(facing.size(), false);
+  for (const auto& [a, r] : wrapped) is_wrapped[a] = tried[a] = true;
   for (bool more = true; more;) {
     more = false;
     for (const auto& [key, near] : sewn_on_side)
       for (auto [a, b] : {key, std::pair<size_t, size_t>{key.second, key.first}})
-        if (is_wrapped[a] && !is_wrapped[b] && !facing[b].second.reaches_top) {
+        if (is_wrapped[a] && !tried[b] && !facing[b].second.reaches_top) {
+          tried[b] = true;
           Rows r = facing[b].second;
           r.extent = group_rows[root(b)].extent;
-          is_wrapped[b] = true;
-          if (wrap(r, margin, moved) == 0.0f) continue;
-          wrapped.emplace_back(facing[b].first, std::move(r));
-          more = true;
+          if (wrap(r, margin, moved) == 0.0f) continue;  // not moved: no panel follows it
+          wrapped.emplace_back(b, std::move(r));
+          is_wrapped[b] = more = true;
         }
   }
   // Layers keep their order: on each side, a panel placed farther out is wrapped kWrapLayer farther
   // out than the one inside it.
   std::vector<std::vector<Vec3>> places(wrapped.size());
   for (size_t w = 0; w < wrapped.size(); ++w) {
-    const auto& [n, r] = wrapped[w];
+    const auto& [a, r] = wrapped[w];
     size_t inside = 0;
-    for (const auto& [n2, r2] : wrapped) inside += r2.front == r.front && r2.depth < r.depth;
-    stretched[n] = wrap(r, margin + float(inside * kWrapLayer), places[w]);
+    for (const auto& [a2, r2] : wrapped) inside += r2.front == r.front && r2.depth < r.depth;
+    stretched[facing[a].first] = wrap(r, margin + float(inside * kWrapLayer), places[w]);
   }
   for (size_t w = 0; w < wrapped.size(); ++w)
     for (size_t v = 0; v < wrapped[w].second.pv.size(); ++v) m.initial_positions[wrapped[w].second.pv[v]] = places[w][v];
