@@ -468,14 +468,14 @@ TEST(WalkingDressGc, ThePencilDressStartsOnTheManWithItsSeamsWeldedAndStaysClean
 
 namespace {
 
-// GarmentCode's jumpsuit put on the man by scenes/garment_on_man.json, with `extra` added to its
-// obstacles.
-SceneDef jumpsuit_on_man(const std::string& extra = "") {
+// GarmentCode's pencil dress put on the man by scenes/garment_on_man.json (from the pattern file
+// alone, sewn from apart), with `extra` added to its obstacles.
+SceneDef dress_on_man(const std::string& extra = "") {
   std::ifstream in(kSource + "/scenes/garment_on_man.json");
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const std::string shirt = "shirt_mean_specification", suit = "js_mean_all_specification";
+  const std::string shirt = "garmentcode/shirt_mean_specification", dress = "garmentcode/dress_pencil_specification";
   EXPECT_NE(text.find(shirt), std::string::npos);
-  text.replace(text.find(shirt), shirt.size(), suit);
+  text.replace(text.find(shirt), shirt.size(), dress);
   const std::string front = "\"front\": [1, 0, 0] }";
   EXPECT_NE(text.find(front), std::string::npos);
   text.insert(text.find(front) + front.size(), extra);
@@ -485,11 +485,13 @@ SceneDef jumpsuit_on_man(const std::string& extra = "") {
 }  // namespace
 
 TEST(GarmentOnMan, ClothSettlingOnTheStandingManRunsNoFurtherBoundPasses) {
-  // GarmentCode's jumpsuit put on the man while he stands (he is held for 1 s): its layers settle
-  // against each other, the contact solve keeps them apart and the bound holds some of its pushes
-  // back in every step. No body moves, so those holds need no further passes of the bound (they
-  // refresh every ball and moved nothing here: three a step before). Checked exactly every 20 steps.
-  Simulator sim(jumpsuit_on_man());
+  // A dress put on the man while he stands (he is held for 1 s): its panels settle against each
+  // other as the stitches draw them in, the contact solve keeps them apart and the bound holds some
+  // of its pushes back. No body moves, so those holds need no further passes of the bound (they
+  // refresh every ball and moved nothing here). Checked exactly every 20 steps. (Until 0.5.8 this
+  // was the jumpsuit, whose clamped vertices were its back trouser panels' overlapping tips: parted
+  // at the start since.)
+  Simulator sim(dress_on_man());
   ASSERT_EQ(test::step_checked(sim, 60, 20), "");
   EXPECT_GT(sim.totals().contact_moved, 0u) << "the contact solve moved nothing";
   EXPECT_GT(sim.totals().clamped, 0u) << "the bound held nothing back";
@@ -501,8 +503,8 @@ TEST(GarmentOnMan, FurtherBoundPassesStopAtOneThatMovesNothing) {
   // As above, with a marble moving far above him: a body moves in every step, so the holds of the
   // contact solve ask for further passes. The first moves nothing (the held vertices are where their
   // new balls stop them again), so it is the last: every later one would refresh at the same
-  // positions and clamp the same moves (three a step before).
-  Simulator sim(jumpsuit_on_man(R"(,
+  // positions and clamp the same moves.
+  Simulator sim(dress_on_man(R"(,
     { "name": "marble", "type": "uv_sphere", "radius": 0.01, "position": [0, 3, 0], "motion": { "velocity": [0.1, 0, 0] } })"));
   const int steps = 60;
   ASSERT_EQ(test::step_checked(sim, steps, 20), "");

@@ -319,6 +319,29 @@ TEST(Sewing, AStitchLeftOpenBetweenTwoWeldedOnesIsWeldedWithThem) {
   EXPECT_EQ(test::step_checked(sim, 50, 10), "");
 }
 
+TEST(Sewing, StitchesLeftOpenInARunBetweenTwoWeldedOnesAreWeldedWithThem) {
+  // As above with two neighbouring stitches left open (rand_1KMN65OI4O's gathered cuff left four):
+  // their b sides 9 mm off, nearer than the welded stitches either side of the run are to each other.
+  SceneDef s = two_squares_sewn();
+  s.sewing.close_time = 0;
+  s.seams[0].stiffness = 1e-6f;
+  Simulator sim(s);
+  const ClothModel& m = sim.model();
+  const size_t count = m.stitch_seam.size();
+  ASSERT_GE(count, 6u);
+  std::vector<Vec3> x = sim.positions();
+  for (Vec3& p : x)
+    if (p.x > 0) p.x -= 0.1f;
+  for (size_t k : {count / 2 - 1, count / 2}) {
+    const uint32_t side_b = x[m.stitches[2 * k]].x > -0.05f ? m.stitches[2 * k] : m.stitches[2 * k + 1];
+    x[side_b].z += 0.009f;
+  }
+  sim.set_state(x, std::vector<Vec3>(x.size(), make_vec3(0, 0, 0)));
+  sim.step(int(std::lround(0.002 / s.time.dt)));
+  EXPECT_EQ(sim.stitches_welded(), count);
+  EXPECT_EQ(test::step_checked(sim, 50, 10), "");
+}
+
 // A weld moves both sides of a stitch to their centre, a jump nothing bounded. Here a third sheet
 // lies between the sides (1 mm above a, b 5 mm above a): welding would drag a's seam through it, so
 // the welds are put off, and the run stays uncrossed on every step.
@@ -615,6 +638,39 @@ TEST(GarmentFit, PanelsOverlappingInOnePlaneStartParted) {
   check_cloth_crossings(cloth_check_mesh(m, m.initial_positions), r);
   EXPECT_EQ(r.crossings, 0u);
   fs::remove_all(d);
+}
+
+TEST(GarmentFit, PanelsWhoseEdgesOverlapWhereTheyAreNotSewnToEachOtherStartParted) {
+  // Two 30 x 20 cm panels in one plane, a's right side 2 mm over b's left (as GarmentCode's jumpsuit
+  // lays the tips of its back trouser panels, sewn to the front panels there, not to each other):
+  // only their outlines touch, and those vertices would start with no room to move. Unsewn, one panel
+  // is moved off the other; sewn to each other along those sides, neither moves.
+  for (const bool sewn : {false, true}) {
+    const fs::path d = temp_dir(sewn ? "edges_sewn" : "edges");
+    write(d / "body.obj", boxes_obj(kBody));
+    const std::string sq = R"("vertices": [[-15, 0], [15, 0], [15, 20], [-15, 20]],
+      "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}])";
+    const std::string stitches = sewn ? R"([[{"panel": "a", "edge": 1}, {"panel": "b", "edge": 3}]])" : "[]";
+    write(d / "g.json", R"({"pattern": {"panels": {
+      "a": {"translation": [-14.9, 120, 20], "rotation": [0, 0, 0], )" + sq + R"(},
+      "b": {"translation": [14.9, 120, 20], "rotation": [0, 0, 0], )" + sq + R"(}},
+      "stitches": )" + stitches + R"(}, "properties": {"units_in_meter": 100, "curvature_coords": "relative"}})");
+    std::string text = body_scene(", \"body\": \"body\"");
+    const std::string edge = "\"edge_length\": 0.04";
+    text.replace(text.find(edge), edge.size(), "\"edge_length\": 0.02");
+    const SceneDef s = parse_scene(text, (d / "scene.json").string());
+    ClothModel m = build_cloth_model(s);
+    const ObstacleSet o = build_obstacles(s);
+    const std::vector<PanelFit> fits = fit_garments(m, o, s);
+    ASSERT_EQ(fits.size(), 2u);
+    // Both are first moved out of the body alike; parted, one of them 5 mm further.
+    const float parted = std::abs(std::abs(fits[0].moved) - std::abs(fits[1].moved));
+    if (sewn)
+      EXPECT_EQ(parted, 0.0f);
+    else
+      EXPECT_GE(parted, 0.005f - 1e-6f);
+    fs::remove_all(d);
+  }
 }
 
 TEST(GarmentFit, BadGarmentsAreRefusedWordForWord) {

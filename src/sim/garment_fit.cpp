@@ -551,11 +551,12 @@ bool panels_cross(const ClothModel& m, const std::vector<Vec3>& x, uint32_t a, u
   return crossings_among(m, x, std::array<uint32_t, 2>{std::min(a, b), std::max(a, b)}) > 0;
 }
 
-// Whether an inner vertex of panel a lies within `gap` of a triangle of panel b, or one of b within
-// gap of one of a's (at positions x): the two overlap. Vertices on a panel's outline are left out
-// (`outline`): panels sewn edge to edge may start with their edges together.
+// Whether a vertex of panel a lies within `gap` of a triangle of panel b, or one of b within gap of
+// one of a's (at positions x): the two overlap. A vertex on a panel's outline sewn to the other panel
+// (`sewn_to(i, q)`) is left out: panels sewn edge to edge may start with their edges together.
+template <class SewnTo>
 bool panels_touch(const ClothModel& m, const std::vector<Vec3>& x, uint32_t a, uint32_t b, float gap,
-                  const std::vector<bool>& outline) {
+                  const std::vector<bool>& outline, SewnTo&& sewn_to) {
   const double g2 = double(gap) * double(gap);
   for (auto [p, q] : {std::pair<uint32_t, uint32_t>{a, b}, {b, a}}) {
     Body other;
@@ -565,7 +566,7 @@ bool panels_touch(const ClothModel& m, const std::vector<Vec3>& x, uint32_t a, u
     const TriangleGrid grid(other, 0.03f, gap);
     const Piece& pp = m.pieces[p];
     for (uint32_t i = pp.first_vertex; i < pp.first_vertex + pp.vertex_count; ++i) {
-      if (outline[i]) continue;
+      if (outline[i] && sewn_to(i, q)) continue;
       if (const auto* near = grid.near(x[i]))
         for (uint32_t t : *near) {
           const TrianglePoint c = closest_on_triangle(dvec(x[i]), dvec(x[other.tris[3 * t]]), dvec(x[other.tris[3 * t + 1]]),
@@ -581,7 +582,9 @@ bool panels_touch(const ClothModel& m, const std::vector<Vec3>& x, uint32_t a, u
 // sleeve, both moved out of the shoulder), or that lie within `gap` of each other away from their
 // seams (GarmentCodeData's rand_033UAN6C0K places its two legs' cuff flounces overlapping in one
 // plane: touching everywhere, the displacement bound left their vertices no room to move, and the
-// flounces stayed where they started, their seams 36 cm open): the panel whose edge goes through
+// flounces stayed where they started, their seams 36 cm open; GarmentCode's jumpsuit lays the tips of
+// its two back trouser panels 2 mm over each other where they are sewn to the front panels, not to
+// each other, and those tips stayed put, the crotch 10 cm open): the panel whose edge goes through
 // (or the first of a touching pair) moves on away from the body's axis along its normal, 5 mm at a
 // time while it stays clear of the body, up to kMaxClearMove in all; failing that the other panel
 // does. Pair by pair until none crosses or touches, or a pair cannot be parted (a crossing is then
@@ -607,10 +610,34 @@ void separate_panels(ClothModel& m, const GarmentFitDef& g, std::vector<PanelFit
     for (const auto& [e, n] : uses)
       if (n == 1) outline[uint32_t(e >> 32)] = outline[uint32_t(e & 0xffffffffu)] = true;
   }
+  // The panels each vertex is sewn to: those of its seam group (welded partners) and of the groups
+  // it is stitched to.
+  std::unordered_map<uint32_t, std::vector<uint32_t>> group_panels;  // representative -> panels
+  for (uint32_t i = 0; i < m.num_vertices(); ++i) {
+    std::vector<uint32_t>& ps = group_panels[m.alias[i]];
+    const uint32_t p = uint32_t(&m.piece_of(i) - m.pieces.data());
+    if (std::find(ps.begin(), ps.end(), p) == ps.end()) ps.push_back(p);
+  }
+  std::unordered_multimap<uint32_t, uint32_t> stitched;  // representative -> representative
+  for (size_t k = 0; k + 1 < m.stitches.size(); k += 2) {
+    stitched.emplace(m.alias[m.stitches[k]], m.alias[m.stitches[k + 1]]);
+    stitched.emplace(m.alias[m.stitches[k + 1]], m.alias[m.stitches[k]]);
+  }
+  auto sewn_to = [&](uint32_t i, uint32_t q) {
+    auto has = [&](uint32_t rep) {
+      const std::vector<uint32_t>& ps = group_panels[rep];
+      return std::find(ps.begin(), ps.end(), q) != ps.end();
+    };
+    if (has(m.alias[i])) return true;
+    const auto [lo, hi] = stitched.equal_range(m.alias[i]);
+    for (auto it = lo; it != hi; ++it)
+      if (has(it->second)) return true;
+    return false;
+  };
   auto touching = [&](int& pa, int& pb) {
     for (uint32_t a = g.first_panel; a < g.first_panel + g.num_panels; ++a)
       for (uint32_t b = a + 1; b < g.first_panel + g.num_panels; ++b)
-        if (panels_touch(m, m.initial_positions, a, b, gap, outline)) {
+        if (panels_touch(m, m.initial_positions, a, b, gap, outline, sewn_to)) {
           pa = int(a), pb = int(b);
           return true;
         }
@@ -647,7 +674,7 @@ void separate_panels(ClothModel& m, const GarmentFitDef& g, std::vector<PanelFit
         std::vector<Vec3> x = m.initial_positions;
         for (uint32_t i : pv) x[i] += move;
         if (panels_cross(m, x, uint32_t(pa), uint32_t(pb))) continue;
-        if (touch && panels_touch(m, x, uint32_t(pa), uint32_t(pb), gap, outline)) continue;
+        if (touch && panels_touch(m, x, uint32_t(pa), uint32_t(pb), gap, outline, sewn_to)) continue;
         m.initial_positions = x;
         fit.moved += sign * d;
         parted = true;
