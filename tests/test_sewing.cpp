@@ -673,6 +673,35 @@ TEST(GarmentFit, PanelsWhoseEdgesOverlapWhereTheyAreNotSewnToEachOtherStartParte
   }
 }
 
+TEST(GarmentFit, APanelMovedClearGoesToTheSideOfThePanelItIsSewnTo) {
+  // Two 30 x 20 cm panels through the torso (0.24 m deep), 4 cm in front of its middle and 4 cm
+  // behind, the first's bottom sewn to the second's top. Each is nearer its own face of the torso:
+  // moved clear the shortest way, the second would go out behind it, its stitches through the torso
+  // to the first in front (as rand_1KMN65OI4O's cuff flounce went behind the hand). It goes out in
+  // front instead, where none of them does.
+  const fs::path d = temp_dir("sides");
+  write(d / "body.obj", boxes_obj(kBody));
+  const std::string sq = R"("vertices": [[-15, 0], [15, 0], [15, 20], [-15, 20]],
+    "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}])";
+  write(d / "g.json", R"({"pattern": {"panels": {
+    "upper": {"translation": [0, 120, 4], "rotation": [0, 0, 0], )" + sq + R"(},
+    "lower": {"translation": [0, 100, -4], "rotation": [0, 0, 0], )" + sq + R"(}},
+    "stitches": [[{"panel": "upper", "edge": 0}, {"panel": "lower", "edge": 2}]]},
+    "properties": {"units_in_meter": 100, "curvature_coords": "relative"}})");
+  const SceneDef s = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
+  ClothModel m = build_cloth_model(s);
+  const ObstacleSet o = build_obstacles(s);
+  const std::vector<PanelFit> fits = fit_garments(m, o, s);
+  ASSERT_EQ(fits.size(), 2u);
+  EXPECT_GT(fits[0].moved, 0.0f);
+  EXPECT_GT(fits[1].moved, 0.0f) << "the lower panel went out behind the torso";
+  ASSERT_GE(m.stitch_seam.size(), 5u);
+  for (size_t k = 0; k < m.stitch_seam.size(); ++k)
+    for (int side = 0; side < 2; ++side)
+      EXPECT_GT(m.initial_positions[m.stitches[2 * k + size_t(side)]].z, 0.12f) << "stitch " << k << " side " << side;
+  fs::remove_all(d);
+}
+
 TEST(GarmentFit, BadGarmentsAreRefusedWordForWord) {
   const fs::path d = temp_dir("bad");
   write(d / "body.obj", boxes_obj(kBody));

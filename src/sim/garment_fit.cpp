@@ -194,6 +194,38 @@ bool panel_clear(const ClothModel& m, const std::vector<uint32_t>& ids, const st
   return true;
 }
 
+// How many stitches of a panel (its vertices `ids`, one range, moved by `move`) to panels facing its
+// way (`same_way(v)` for the other side's vertex v: a flounce and the sleeve whose edge it continues,
+// not a sleeve's front and back) start through the body: the segment between the stitch's two sides,
+// the other side where it is now, meets a body triangle.
+template <class SameWay>
+size_t stitches_through_body(const ClothModel& m, const std::vector<uint32_t>& ids, Vec3 move, const Body& body,
+                             const TriangleGrid& grid, SameWay&& same_way) {
+  if (ids.empty()) return 0;
+  const uint32_t lo = ids.front(), hi = ids.back();
+  auto in = [&](uint32_t v) { return v >= lo && v <= hi; };
+  const std::vector<Vec3>& bx = *body.x;
+  size_t through = 0;
+  std::vector<uint32_t> cand;
+  for (size_t k = 0; k + 1 < m.stitches.size(); k += 2) {
+    const uint32_t u = m.stitches[k], w = m.stitches[k + 1];
+    if (in(u) == in(w) || !same_way(in(u) ? w : u)) continue;
+    const Vec3 p = in(u) ? m.initial_positions[u] + move : m.initial_positions[u];
+    const Vec3 q = in(w) ? m.initial_positions[w] + move : m.initial_positions[w];
+    cand.clear();
+    grid.in_box(vmin(p, q), vmax(p, q), cand);
+    std::sort(cand.begin(), cand.end());
+    cand.erase(std::unique(cand.begin(), cand.end()), cand.end());
+    for (uint32_t t : cand)
+      if (classify_edge_triangle(dpoint(p), dpoint(q), dpoint(bx[body.tris[3 * t]]), dpoint(bx[body.tris[3 * t + 1]]),
+                                 dpoint(bx[body.tris[3 * t + 2]])) != EdgeTriangle::Apart) {
+        ++through;
+        break;
+      }
+  }
+  return through;
+}
+
 // A panel's vertices and triangles (model vertex numbers) and its mean normal.
 Vec3 panel_geometry(const ClothModel& m, const Piece& piece, std::vector<uint32_t>& pv, std::vector<uint32_t>& pt) {
   pv.clear(), pt.clear();
@@ -775,6 +807,14 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
     body_mesh.triangles = body.tris;
     const size_t first_fit = fits.size();
     auto place = [&](const std::vector<float>& stretch, std::string& refusal) {
+      // Each panel's mean normal, and the panel of each of the garment's vertices.
+      std::vector<Vec3> normals(g.num_panels);
+      std::unordered_map<uint32_t, uint32_t> panel_of;
+      for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p) {
+        std::vector<uint32_t> pv, pt;
+        normals[p - g.first_panel] = panel_geometry(m, m.pieces[p], pv, pt);
+        for (uint32_t i : pv) panel_of[i] = p - g.first_panel;
+      }
       for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p) {
         const Piece& piece = m.pieces[p];
         std::vector<uint32_t> pv, pt;
@@ -797,6 +837,24 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
                                 piece.name, g.body, kMaxClearMove, double(clearance));
           return false;
         }
+        // A panel moved to clear the body may have gone through it (GarmentCodeData's rand_1KMN65OI4O:
+        // a cuff flounce over the hand moved behind it, the sleeve's edge it is sewn to in front; the
+        // stitches, drawn together through the wrist, left the seam 6 cm open): where some of its
+        // stitches to panels facing its way then start through the body, the first clear place the
+        // other way is taken if fewer do there. (A sleeve's front and back face apart: their stitches
+        // go round the arm, and are not counted.)
+        auto same_way = [&](uint32_t v) {
+          const auto it = panel_of.find(v);
+          return it != panel_of.end() && dot(normals[it->second], normal) > 0;
+        };
+        if (moved != 0)
+          if (const size_t through = stitches_through_body(m, pv, normal * moved, body, grid, same_way); through > 0)
+            for (float d = step; d <= float(kMaxClearMove) + 1e-6f; d += step) {
+              const float other = moved > 0 ? -d : d;
+              if (!panel_clear(m, pv, pt, normal * other, body, grid, body_mesh, clearance)) continue;
+              if (stitches_through_body(m, pv, normal * other, body, grid, same_way) < through) moved = other;
+              break;
+            }
         for (uint32_t i : pv) m.initial_positions[i] += normal * moved;
         const float st = stretch[p - g.first_panel];
         fits.push_back({piece.name, moved, st > 0, std::max(st, 1.0f)});
