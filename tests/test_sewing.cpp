@@ -319,6 +319,29 @@ TEST(Sewing, AStitchLeftOpenBetweenTwoWeldedOnesIsWeldedWithThem) {
   EXPECT_EQ(test::step_checked(sim, 50, 10), "");
 }
 
+TEST(Sewing, StitchesLeftOpenInARunBetweenTwoWeldedOnesAreWeldedWithThem) {
+  // As above with two neighbouring stitches left open (rand_1KMN65OI4O's gathered cuff left four):
+  // their b sides 9 mm off, nearer than the welded stitches either side of the run are to each other.
+  SceneDef s = two_squares_sewn();
+  s.sewing.close_time = 0;
+  s.seams[0].stiffness = 1e-6f;
+  Simulator sim(s);
+  const ClothModel& m = sim.model();
+  const size_t count = m.stitch_seam.size();
+  ASSERT_GE(count, 6u);
+  std::vector<Vec3> x = sim.positions();
+  for (Vec3& p : x)
+    if (p.x > 0) p.x -= 0.1f;
+  for (size_t k : {count / 2 - 1, count / 2}) {
+    const uint32_t side_b = x[m.stitches[2 * k]].x > -0.05f ? m.stitches[2 * k] : m.stitches[2 * k + 1];
+    x[side_b].z += 0.009f;
+  }
+  sim.set_state(x, std::vector<Vec3>(x.size(), make_vec3(0, 0, 0)));
+  sim.step(int(std::lround(0.002 / s.time.dt)));
+  EXPECT_EQ(sim.stitches_welded(), count);
+  EXPECT_EQ(test::step_checked(sim, 50, 10), "");
+}
+
 // A weld moves both sides of a stitch to their centre, a jump nothing bounded. Here a third sheet
 // lies between the sides (1 mm above a, b 5 mm above a): welding would drag a's seam through it, so
 // the welds are put off, and the run stays uncrossed on every step.

@@ -154,7 +154,7 @@ bool welded_inside(const ClothModel& m, const CheckMesh& body, const std::vector
 }  // namespace
 
 // Joins every open stitch whose two vertices are within the close tolerance, and every open stitch
-// between two welded neighbours of its seam no wider than they are apart, into one vertex (the
+// between two welded stitches of its seam no wider than they are apart, into one vertex (the
 // group's centroid, its mass-weighted velocity): the model is welded again (sim/model.h,
 // weld_seams) and the backend rebuilt from the current state. Returns how many were welded.
 size_t Simulator::weld_closed_stitches() {
@@ -179,17 +179,22 @@ size_t Simulator::weld_closed_stitches() {
     if (length(x_[side(trial, k, 0)] - x_[side(trial, k, 1)]) > tol) continue;
     if (join(trial, k)) chosen.push_back(k);
   }
-  // A stitch still open between two welded neighbours of its seam is welded too, when it is no wider
-  // than they are apart: its two sides are held at both ends, and where they lie crossed (each side's
-  // edge to a welded neighbour crossing the other's) the bound lets them touch but never pass, so they
-  // would freeze there, touching, for the rest of the run (the pencil dress's skirt: four vertices).
+  // Stitches still open between two welded stitches of their seam (a run of them, its neighbours on
+  // both ends welded) are welded too, each when it is no wider than those two are apart: their sides
+  // are held at both ends, and where they lie crossed (each side's edge to a welded neighbour crossing
+  // the other's) the bound lets them touch but never pass, so they would freeze there, touching, for
+  // the rest of the run (the pencil dress's skirt: four vertices, one stitch; the gathered cuff of
+  // rand_1KMN65OI4O: four stitches, 6 cm open).
   auto joined = [&](size_t k) { return side(trial, k, 0) == side(trial, k, 1); };
   for (size_t k = 1; k + 1 < count; ++k) {
-    if (m.stitch_seam[k - 1] != m.stitch_seam[k] || m.stitch_seam[k + 1] != m.stitch_seam[k]) continue;
-    if (joined(k) || !joined(k - 1) || !joined(k + 1)) continue;
-    const float span = length(x_[side(trial, k - 1, 0)] - x_[side(trial, k + 1, 0)]);
-    if (length(x_[side(trial, k, 0)] - x_[side(trial, k, 1)]) > span) continue;
-    if (join(trial, k)) chosen.push_back(k);
+    if (m.stitch_seam[k - 1] != m.stitch_seam[k] || joined(k) || !joined(k - 1)) continue;
+    size_t end = k;  // the run k .. end - 1, open; end its welded neighbour
+    while (end < count && m.stitch_seam[end] == m.stitch_seam[k] && !joined(end)) ++end;
+    if (end == count || m.stitch_seam[end] != m.stitch_seam[k]) continue;
+    const float span = length(x_[side(trial, k - 1, 0)] - x_[side(trial, end, 0)]);
+    for (size_t j = k; j < end; ++j)
+      if (length(x_[side(trial, j, 0)] - x_[side(trial, j, 1)]) <= span && join(trial, j)) chosen.push_back(j);
+    k = end;
   }
   if (chosen.empty()) return 0;
   // A weld moves both sides to their centre, a jump that nothing bounded: it must not put a cloth edge
