@@ -125,16 +125,40 @@ bool through_a_leg(Vec3 a, Vec3 b) {
 
 // A garment file fitted on the legs-apart body (in folder d): its scene, its model after the fit and
 // the fit of each panel.
-struct FittedOnLegs {
+struct Fitted {
   SceneDef scene;
   ClothModel model;
   std::vector<PanelFit> fits;
 };
-FittedOnLegs fit_on_legs(const fs::path& d, const std::string& garment) {
+Fitted fit_on_legs(const fs::path& d, const std::string& garment) {
   write(d / "body.obj", legs_apart_obj());
   write(d / "g.json", garment);
-  FittedOnLegs r;
+  Fitted r;
   r.scene = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
+  r.model = build_cloth_model(r.scene);
+  const ObstacleSet o = build_obstacles(r.scene);
+  r.fits = fit_garments(r.model, o, r.scene);
+  return r;
+}
+
+// Two 30 x 20 cm panels a and b of one garment file, standing in their x-y planes with their bottom
+// edges' middles at `at_a` and `at_b` (cm), sewn as `stitches` says (a GarmentCode stitches list),
+// meshed at `edge_length` and fitted on the box body (in folder d).
+Fitted fit_two_squares(const fs::path& d, std::array<float, 3> at_a, std::array<float, 3> at_b, const std::string& stitches,
+                       float edge_length) {
+  write(d / "body.obj", boxes_obj(kBody));
+  const std::string sq = R"("rotation": [0, 0, 0], "vertices": [[-15, 0], [15, 0], [15, 20], [-15, 20]],
+    "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}])";
+  write(d / "g.json", fmt::format(R"({{"pattern": {{"panels": {{
+    "a": {{"translation": [{}, {}, {}], {}}},
+    "b": {{"translation": [{}, {}, {}], {}}}}},
+    "stitches": {}}}, "properties": {{"units_in_meter": 100, "curvature_coords": "relative"}}}})",
+                                  at_a[0], at_a[1], at_a[2], sq, at_b[0], at_b[1], at_b[2], sq, stitches));
+  std::string text = body_scene(", \"body\": \"body\"");
+  const std::string edge = "\"edge_length\": 0.04";
+  text.replace(text.find(edge), edge.size(), fmt::format("\"edge_length\": {}", edge_length));
+  Fitted r;
+  r.scene = parse_scene(text, (d / "scene.json").string());
   r.model = build_cloth_model(r.scene);
   const ObstacleSet o = build_obstacles(r.scene);
   r.fits = fit_garments(r.model, o, r.scene);
@@ -293,53 +317,57 @@ TEST(Sewing, WeldingAgainAsStitchesCloseLeavesEveryGroupFree) {
   EXPECT_EQ(pinned, pinned_on_top) << "a group welded from a closed stitch is pinned";
 }
 
-// A stitch still open between two welded neighbours is welded with them at the next weld check, when
-// it is no wider than they are apart: where its two sides lie crossed, the bound lets them touch but
-// never pass, and they froze there (the pencil dress's skirt on the walking man: four vertices, from
-// 0.45 s to the end, one of them inside a thigh once he walked).
-TEST(Sewing, AStitchLeftOpenBetweenTwoWeldedOnesIsWeldedWithThem) {
-  SceneDef s = two_squares_sewn();
-  s.sewing.close_time = 0;
-  s.seams[0].stiffness = 1e-6f;  // the stitches do not pull: only the weld check closes them
-  Simulator sim(s);
-  const ClothModel& m = sim.model();
-  const size_t count = m.stitch_seam.size();
-  ASSERT_GE(count, 5u);
-  // Panel b moved onto a's right side, so that every stitch is closed but the middle one, whose b side
-  // stands 9 mm off: beyond the 6 mm tolerance, nearer than its neighbours are to each other (25 mm).
-  std::vector<Vec3> x = sim.positions();
-  for (Vec3& p : x)
-    if (p.x > 0) p.x -= 0.1f;
-  const size_t mid = count / 2;
-  const uint32_t side_b = x[m.stitches[2 * mid]].x > -0.05f ? m.stitches[2 * mid] : m.stitches[2 * mid + 1];
-  x[side_b].z += 0.009f;
-  sim.set_state(x, std::vector<Vec3>(x.size(), make_vec3(0, 0, 0)));
-  sim.step(int(std::lround(0.002 / s.time.dt)));  // to the first weld check
-  EXPECT_EQ(sim.stitches_welded(), count);
-  EXPECT_EQ(test::step_checked(sim, 50, 10), "");
-}
-
-TEST(Sewing, StitchesLeftOpenInARunBetweenTwoWeldedOnesAreWeldedWithThem) {
-  // As above with two neighbouring stitches left open (rand_1KMN65OI4O's gathered cuff left four):
-  // their b sides 9 mm off, nearer than the welded stitches either side of the run are to each other.
+// The two squares sewn, their stitches not pulling (only the weld check closes them), panel b moved
+// onto a's right side so that every stitch is closed but `open` of them in the middle, whose b sides
+// stand 9 mm off: beyond the 6 mm tolerance, nearer than the welded stitches either side are to each
+// other (25 mm or more). Then stepped to the first weld check: how many stitches of how many are
+// welded, and whether 50 further steps are clean (checked every 10).
+namespace {
+struct OpenInTheMiddle {
+  size_t welded = 0, count = 0;
+  std::string after;
+};
+OpenInTheMiddle weld_with_open_in_the_middle(size_t open) {
   SceneDef s = two_squares_sewn();
   s.sewing.close_time = 0;
   s.seams[0].stiffness = 1e-6f;
   Simulator sim(s);
   const ClothModel& m = sim.model();
-  const size_t count = m.stitch_seam.size();
-  ASSERT_GE(count, 6u);
+  OpenInTheMiddle r;
+  r.count = m.stitch_seam.size();
+  if (r.count < open + 4) return r;
   std::vector<Vec3> x = sim.positions();
   for (Vec3& p : x)
     if (p.x > 0) p.x -= 0.1f;
-  for (size_t k : {count / 2 - 1, count / 2}) {
+  for (size_t k = r.count / 2; k < r.count / 2 + open; ++k) {
     const uint32_t side_b = x[m.stitches[2 * k]].x > -0.05f ? m.stitches[2 * k] : m.stitches[2 * k + 1];
     x[side_b].z += 0.009f;
   }
   sim.set_state(x, std::vector<Vec3>(x.size(), make_vec3(0, 0, 0)));
-  sim.step(int(std::lround(0.002 / s.time.dt)));
-  EXPECT_EQ(sim.stitches_welded(), count);
-  EXPECT_EQ(test::step_checked(sim, 50, 10), "");
+  sim.step(int(std::lround(0.002 / s.time.dt)));  // to the first weld check
+  r.welded = sim.stitches_welded();
+  r.after = test::step_checked(sim, 50, 10);
+  return r;
+}
+}  // namespace
+
+// A stitch still open between two welded neighbours is welded with them at the next weld check, when
+// it is no wider than they are apart: where its two sides lie crossed, the bound lets them touch but
+// never pass, and they froze there (the pencil dress's skirt on the walking man: four vertices, from
+// 0.45 s to the end, one of them inside a thigh once he walked).
+TEST(Sewing, AStitchLeftOpenBetweenTwoWeldedOnesIsWeldedWithThem) {
+  const OpenInTheMiddle r = weld_with_open_in_the_middle(1);
+  ASSERT_GE(r.count, 5u);
+  EXPECT_EQ(r.welded, r.count);
+  EXPECT_EQ(r.after, "");
+}
+
+TEST(Sewing, StitchesLeftOpenInARunBetweenTwoWeldedOnesAreWeldedWithThem) {
+  // As above with two neighbouring stitches left open (rand_1KMN65OI4O's gathered cuff left four).
+  const OpenInTheMiddle r = weld_with_open_in_the_middle(2);
+  ASSERT_GE(r.count, 6u);
+  EXPECT_EQ(r.welded, r.count);
+  EXPECT_EQ(r.after, "");
 }
 
 // A weld moves both sides of a stitch to their centre, a jump nothing bounded. Here a third sheet
@@ -505,7 +533,7 @@ TEST(GarmentFit, ASkirtNarrowerThanTheLegsStanceIsWrappedAroundThem) {
   // Placed flat, its sides stand in front of and behind the legs: the stitches between them run
   // through the legs. Wrapped around the legs' hull, stretched to reach its sides, they do not.
   const fs::path d = temp_dir("stance");
-  const FittedOnLegs f = fit_on_legs(d, straight_skirt());
+  const Fitted f = fit_on_legs(d, straight_skirt());
   ASSERT_EQ(f.fits.size(), 2u);
   for (const PanelFit& p : f.fits) {
     EXPECT_TRUE(p.wrapped) << p.panel;
@@ -540,7 +568,7 @@ TEST(GarmentFit, ARobeReachingAboveTheWaistIsWrappedBelowItOnly) {
                  [{"panel": "front_l", "edge": 3}, {"panel": "back", "edge": 1}]])";
   const size_t st = g.find("\"stitches\": ") + 12;
   g.replace(st, g.find("]]}", st) + 2 - st, stitches);
-  const FittedOnLegs f = fit_on_legs(d, g);
+  const Fitted f = fit_on_legs(d, g);
   ASSERT_EQ(f.fits.size(), 3u);
   for (const PanelFit& p : f.fits) EXPECT_TRUE(p.wrapped) << p.panel;
   ASSERT_GE(f.model.stitch_seam.size(), 20u);
@@ -573,7 +601,7 @@ TEST(GarmentFit, AFlounceSewnToAWrappedSkirtIsWrappedWithIt) {
   const size_t st = g.find("\"stitches\": [") + 13;
   g.insert(st, R"([{"panel": "front", "edge": 0}, {"panel": "flounce_f", "edge": 2}],
                  [{"panel": "back", "edge": 0}, {"panel": "flounce_b", "edge": 2}], )");
-  const FittedOnLegs f = fit_on_legs(d, g);
+  const Fitted f = fit_on_legs(d, g);
   ASSERT_EQ(f.fits.size(), 4u);
   for (const PanelFit& p : f.fits) EXPECT_TRUE(p.wrapped) << p.panel;
   EXPECT_NO_THROW(Simulator sim(f.scene));
@@ -612,20 +640,7 @@ TEST(GarmentFit, PanelsOverlappingInOnePlaneStartParted) {
   // they would start with no room to move. One is moved along its normal, away from the body, until
   // no inner vertex of either is within the thickness of the other; nothing crosses.
   const fs::path d = temp_dir("overlap");
-  write(d / "body.obj", boxes_obj(kBody));
-  const std::string sq = R"("vertices": [[-15, 0], [15, 0], [15, 20], [-15, 20]],
-    "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}])";
-  write(d / "g.json", R"({"pattern": {"panels": {
-    "a": {"translation": [-8, 120, 20], "rotation": [0, 0, 0], )" + sq + R"(},
-    "b": {"translation": [8, 125.7, 20], "rotation": [0, 0, 0], )" + sq + R"(}},
-    "stitches": []}, "properties": {"units_in_meter": 100, "curvature_coords": "relative"}})");
-  std::string text = body_scene(", \"body\": \"body\"");
-  const std::string edge = "\"edge_length\": 0.04";
-  text.replace(text.find(edge), edge.size(), "\"edge_length\": 0.02");
-  const SceneDef s = parse_scene(text, (d / "scene.json").string());
-  ClothModel m = build_cloth_model(s);
-  const ObstacleSet o = build_obstacles(s);
-  const std::vector<PanelFit> fits = fit_garments(m, o, s);
+  const auto [s, m, fits] = fit_two_squares(d, {-8, 120, 20}, {8, 125.7f, 20}, "[]", 0.02f);
   ASSERT_EQ(fits.size(), 2u);
   EXPECT_GE(std::abs(fits[0].moved) + std::abs(fits[1].moved), 0.005f - 1e-6f);
   // The two planes: at least the thickness apart (they stay parallel, facing the body's front).
@@ -647,21 +662,8 @@ TEST(GarmentFit, PanelsWhoseEdgesOverlapWhereTheyAreNotSewnToEachOtherStartParte
   // is moved off the other; sewn to each other along those sides, neither moves.
   for (const bool sewn : {false, true}) {
     const fs::path d = temp_dir(sewn ? "edges_sewn" : "edges");
-    write(d / "body.obj", boxes_obj(kBody));
-    const std::string sq = R"("vertices": [[-15, 0], [15, 0], [15, 20], [-15, 20]],
-      "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}])";
     const std::string stitches = sewn ? R"([[{"panel": "a", "edge": 1}, {"panel": "b", "edge": 3}]])" : "[]";
-    write(d / "g.json", R"({"pattern": {"panels": {
-      "a": {"translation": [-14.9, 120, 20], "rotation": [0, 0, 0], )" + sq + R"(},
-      "b": {"translation": [14.9, 120, 20], "rotation": [0, 0, 0], )" + sq + R"(}},
-      "stitches": )" + stitches + R"(}, "properties": {"units_in_meter": 100, "curvature_coords": "relative"}})");
-    std::string text = body_scene(", \"body\": \"body\"");
-    const std::string edge = "\"edge_length\": 0.04";
-    text.replace(text.find(edge), edge.size(), "\"edge_length\": 0.02");
-    const SceneDef s = parse_scene(text, (d / "scene.json").string());
-    ClothModel m = build_cloth_model(s);
-    const ObstacleSet o = build_obstacles(s);
-    const std::vector<PanelFit> fits = fit_garments(m, o, s);
+    const auto [s, m, fits] = fit_two_squares(d, {-14.9f, 120, 20}, {14.9f, 120, 20}, stitches, 0.02f);
     ASSERT_EQ(fits.size(), 2u);
     // Both are first moved out of the body alike; parted, one of them 5 mm further.
     const float parted = std::abs(std::abs(fits[0].moved) - std::abs(fits[1].moved));
@@ -680,21 +682,11 @@ TEST(GarmentFit, APanelMovedClearGoesToTheSideOfThePanelItIsSewnTo) {
   // to the first in front (as rand_1KMN65OI4O's cuff flounce went behind the hand). It goes out in
   // front instead, where none of them does.
   const fs::path d = temp_dir("sides");
-  write(d / "body.obj", boxes_obj(kBody));
-  const std::string sq = R"("vertices": [[-15, 0], [15, 0], [15, 20], [-15, 20]],
-    "edges": [{"endpoints": [0, 1]}, {"endpoints": [1, 2]}, {"endpoints": [2, 3]}, {"endpoints": [3, 0]}])";
-  write(d / "g.json", R"({"pattern": {"panels": {
-    "upper": {"translation": [0, 120, 4], "rotation": [0, 0, 0], )" + sq + R"(},
-    "lower": {"translation": [0, 100, -4], "rotation": [0, 0, 0], )" + sq + R"(}},
-    "stitches": [[{"panel": "upper", "edge": 0}, {"panel": "lower", "edge": 2}]]},
-    "properties": {"units_in_meter": 100, "curvature_coords": "relative"}})");
-  const SceneDef s = parse_scene(body_scene(", \"body\": \"body\""), (d / "scene.json").string());
-  ClothModel m = build_cloth_model(s);
-  const ObstacleSet o = build_obstacles(s);
-  const std::vector<PanelFit> fits = fit_garments(m, o, s);
+  const auto [s, m, fits] =
+      fit_two_squares(d, {0, 120, 4}, {0, 100, -4}, R"([[{"panel": "a", "edge": 0}, {"panel": "b", "edge": 2}]])", 0.04f);
   ASSERT_EQ(fits.size(), 2u);
   EXPECT_GT(fits[0].moved, 0.0f);
-  EXPECT_GT(fits[1].moved, 0.0f) << "the lower panel went out behind the torso";
+  EXPECT_GT(fits[1].moved, 0.0f) << "the lower panel (b) went out behind the torso";
   ASSERT_GE(m.stitch_seam.size(), 5u);
   for (size_t k = 0; k < m.stitch_seam.size(); ++k)
     for (int side = 0; side < 2; ++side)
