@@ -645,11 +645,11 @@ void separate_panels(ClothModel& m, const GarmentFitDef& g, std::vector<PanelFit
   // The panels each vertex is sewn to: those of its seam group (welded partners) and of the groups
   // it is stitched to.
   std::unordered_map<uint32_t, std::vector<uint32_t>> group_panels;  // representative -> panels
-  for (uint32_t i = 0; i < m.num_vertices(); ++i) {
-    std::vector<uint32_t>& ps = group_panels[m.alias[i]];
-    const uint32_t p = uint32_t(&m.piece_of(i) - m.pieces.data());
-    if (std::find(ps.begin(), ps.end(), p) == ps.end()) ps.push_back(p);
-  }
+  for (uint32_t p = 0; p < m.pieces.size(); ++p)
+    for (uint32_t i = m.pieces[p].first_vertex; i < m.pieces[p].first_vertex + m.pieces[p].vertex_count; ++i) {
+      std::vector<uint32_t>& ps = group_panels[m.alias[i]];
+      if (std::find(ps.begin(), ps.end(), p) == ps.end()) ps.push_back(p);
+    }
   std::unordered_multimap<uint32_t, uint32_t> stitched;  // representative -> representative
   for (size_t k = 0; k + 1 < m.stitches.size(); k += 2) {
     stitched.emplace(m.alias[m.stitches[k]], m.alias[m.stitches[k + 1]]);
@@ -657,8 +657,8 @@ void separate_panels(ClothModel& m, const GarmentFitDef& g, std::vector<PanelFit
   }
   auto sewn_to = [&](uint32_t i, uint32_t q) {
     auto has = [&](uint32_t rep) {
-      const std::vector<uint32_t>& ps = group_panels[rep];
-      return std::find(ps.begin(), ps.end(), q) != ps.end();
+      const auto it = group_panels.find(rep);
+      return it != group_panels.end() && std::find(it->second.begin(), it->second.end(), q) != it->second.end();
     };
     if (has(m.alias[i])) return true;
     const auto [lo, hi] = stitched.equal_range(m.alias[i]);
@@ -807,13 +807,11 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
     body_mesh.triangles = body.tris;
     const size_t first_fit = fits.size();
     auto place = [&](const std::vector<float>& stretch, std::string& refusal) {
-      // Each panel's mean normal, and the panel of each of the garment's vertices.
+      // Each panel's mean normal.
       std::vector<Vec3> normals(g.num_panels);
-      std::unordered_map<uint32_t, uint32_t> panel_of;
       for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p) {
         std::vector<uint32_t> pv, pt;
         normals[p - g.first_panel] = panel_geometry(m, m.pieces[p], pv, pt);
-        for (uint32_t i : pv) panel_of[i] = p - g.first_panel;
       }
       for (uint32_t p = g.first_panel; p < g.first_panel + g.num_panels; ++p) {
         const Piece& piece = m.pieces[p];
@@ -844,8 +842,8 @@ std::vector<PanelFit> fit_garments(ClothModel& m, const ObstacleSet& obstacles, 
         // other way is taken if fewer do there. (A sleeve's front and back face apart: their stitches
         // go round the arm, and are not counted.)
         auto same_way = [&](uint32_t v) {
-          const auto it = panel_of.find(v);
-          return it != panel_of.end() && dot(normals[it->second], normal) > 0;
+          const uint32_t q = uint32_t(&m.piece_of(v) - m.pieces.data());
+          return q >= g.first_panel && q < g.first_panel + g.num_panels && dot(normals[q - g.first_panel], normal) > 0;
         };
         if (moved != 0)
           if (const size_t through = stitches_through_body(m, pv, normal * moved, body, grid, same_way); through > 0)
