@@ -1,5 +1,6 @@
 // Steps a scene: the cloth model, its state, and the collision backend (CPU or CUDA).
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -13,6 +14,8 @@ namespace raycloth {
 
 struct ClothModel;
 struct ObstacleSet;
+class BodyReach;
+struct StepResult;
 
 struct SimOptions {
   std::string device = "cpu";      // cpu, cuda or auto
@@ -77,9 +80,12 @@ class Simulator {
   void save_state(ByteWriter& out);
   void restore_state(ByteReader& in);
 
-  // Substeps per step: 1, or for the implicit integrator where a body moves, as many as keep its
-  // fastest point within kImplicitMaxBodyMove per substep.
-  int substeps() const { return substeps_; }
+  // The most substeps a step was cut into so far: 1, or for the implicit integrator where a body
+  // moves, as many as keep every body point within reach of the cloth in that step within
+  // kImplicitMaxBodyMove per substep (sim/body_reach.h); chosen step by step.
+  int substeps() const { return int(std::max<uint64_t>(1, totals_.max_substeps)); }
+  // The steps the backend took: steps(), or the substeps of every step where they are cut.
+  uint64_t solves() const { return totals_.solves; }
   // Whether the scene left the step to the mesh (TimeDef::dt_given false) and the mesh could not take
   // the scene's (or the default) dt, so that scene().time.dt was chosen below its explicit limit.
   bool dt_from_mesh() const { return dt_from_mesh_; }
@@ -117,15 +123,16 @@ class Simulator {
 
  private:
   SceneDef scene_;
-  int substeps_ = 1;
   bool dt_from_mesh_ = false;
   void choose_dt(double t0);
-  double step_dt_ = 0;       // what the backend steps: scene_.time.dt / substeps_,
-  int step_iterations_ = 0;  // with these sweeps (the implicit integrator)
+  // Where a body moves and the integrator is implicit: what chooses each step's substeps.
+  std::unique_ptr<BodyReach> reach_;
+  int substeps_now();
   std::vector<PanelMove> panel_moves_;
   uint64_t stitches_welded_ = 0, weld_from_ = 0, weld_every_ = 1;
   uint64_t welds_put_off_ = 0;  // stitch welds skipped: they would have crossed the cloth or entered a body
   void advance(int n);
+  void take(const StepResult& r, int n);
   size_t weld_closed_stitches();
   void rebuild_backend();
   std::unique_ptr<ClothModel> model_;

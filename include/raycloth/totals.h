@@ -30,6 +30,8 @@ struct RunTotals {
   uint64_t partial_refreshes = 0;  // steps that recomputed it for the vertices that needed room
   double max_residual = 0;         // implicit integrator: the largest last-sweep step of any step (metres)
   double max_obstacle_move = 0;    // the largest move of an obstacle vertex in one step (metres)
+  uint64_t solves = 0;             // steps the backend took: one a scene step, or one a substep
+  uint64_t max_substeps = 0;       // the most substeps one scene step was cut into (Simulator)
 
   void add(const RunTotals& o) {
 #define RAYCLOTH_TOTAL_ADD(name, json, section) name += o.name;
@@ -39,6 +41,8 @@ struct RunTotals {
     partial_refreshes += o.partial_refreshes;
     max_residual = max_residual > o.max_residual ? max_residual : o.max_residual;
     max_obstacle_move = max_obstacle_move > o.max_obstacle_move ? max_obstacle_move : o.max_obstacle_move;
+    solves += o.solves;
+    max_substeps = max_substeps > o.max_substeps ? max_substeps : o.max_substeps;
   }
 };
 

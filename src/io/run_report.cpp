@@ -108,8 +108,10 @@ nlohmann::json run_json(const RunReport& r, Simulator& sim) {
     j["integrator"] = {{"name", "implicit"},           {"method", "implicit Euler, vertex block descent"},
                        {"iterations", td.iterations},  {"tolerance", td.tolerance},
                        {"unconverged_steps", sim.totals().unconverged}, {"max_residual", sim.totals().max_residual},
-                       // Where a body moves, each step is done in substeps (Simulator::substeps).
-                       {"substeps", sim.substeps()}};
+                       // Where a body moves, each step is cut into substeps, as many as the body
+                       // near the cloth asks for in that step (Simulator::substeps): the most in one
+                       // step, and the solves (substeps) of the run.
+                       {"substeps", sim.substeps()}, {"solves", sim.solves()}};
   else
     j["integrator"] = {{"name", "explicit"}, {"method", "explicit Euler, eq. (3)"}};
   if (r.check.enabled) {
@@ -162,10 +164,10 @@ nlohmann::json timing_json(const RunReport& r) {
 void warn_unconverged(const SceneDef& scene, Simulator& sim) {
   if (scene.time.integrator != Integrator::Implicit || sim.totals().unconverged == 0) return;
   // Each substep is a solve of its own (run.json's integrator.unconverged_steps counts solves).
-  const uint64_t substeps = uint64_t(sim.substeps());
-  const std::string of = substeps > 1 ? fmt::format("{} solves ({} steps of {} substeps)", sim.steps() * substeps,
-                                                    sim.steps(), substeps)
-                                      : fmt::format("{} steps", sim.steps());
+  const std::string of = sim.solves() > sim.steps()
+                             ? fmt::format("{} solves ({} steps, cut into up to {} substeps)", sim.solves(), sim.steps(),
+                                           sim.substeps())
+                             : fmt::format("{} steps", sim.steps());
   spdlog::warn("the implicit integrator did not converge in {} of {}: its last sweep still moved a vertex up to "
                "{:.3g} m (time.tolerance {:g} m); raise time.iterations or lower time.dt",
                sim.totals().unconverged, of, sim.totals().max_residual, scene.time.tolerance);

@@ -18,6 +18,24 @@ namespace raycloth {
 class ByteWriter;
 class ByteReader;
 
+// The step the backend takes: a substep's dt and sweeps (Simulator: where a body moves, the
+// implicit integrator's steps are cut into substeps); dt 0 for the scene's own.
+struct StepSettings {
+  double dt = 0;
+  int iterations = 0;
+};
+
+// When a backend's steps happen: step `first` starts at simulated time `start`, and each lasts
+// settings.dt with settings.iterations sweeps. A backend starts with first 0, start 0 and its
+// BackendInput's step, so that step k starts at k dt; Simulator sets another before the steps of
+// one scene step where the implicit integrator chooses that step's substeps (sim/body_reach.h).
+struct StepClock {
+  uint64_t first = 0;
+  double start = 0;
+  StepSettings settings;
+  double time_at(uint64_t step) const { return start + double(step - first) * settings.dt; }
+};
+
 class Backend {
  public:
   virtual ~Backend() = default;
@@ -44,13 +62,12 @@ class Backend {
   // takes edits.
   virtual bool can_edit() const { return false; }
   virtual void replace_state(const std::vector<Vec3>& x, const std::vector<Vec3>& v) { (void)x, (void)v; }
-};
+  // The clock of the steps that follow (StepClock).
+  void set_clock(const StepClock& clock) { clock_ = clock; }
+  const StepClock& clock() const { return clock_; }
 
-// The step the backend takes: a substep's dt and sweeps (Simulator: where a body moves, the
-// implicit integrator's steps are cut into substeps); dt 0 for the scene's own.
-struct StepSettings {
-  double dt = 0;
-  int iterations = 0;
+ protected:
+  StepClock clock_;
 };
 
 struct BackendInput {
@@ -101,19 +118,20 @@ inline float gravity_ease(double t, double sew_time, bool waits) {
 }
 
 // The step's view, the same on both backends: the scene's collision settings, the step's context
-// (dt, how far seams have closed at the start of `step`, gravity), the backend's buffers and the
+// (dt, how far seams have closed at the start of `step` by the clock, gravity), the backend's buffers and the
 // state's arrays (SimState::wire).
 template <class State>
-StepView make_step_view(const BackendInput& in, uint64_t step, const StepBuffers& b, State& st) {
+StepView make_step_view(const BackendInput& in, const StepClock& clock, uint64_t step, const StepBuffers& b, State& st) {
   const SceneDef& scene = *in.scene;
   const ClothModel& model = *in.model;
   StepView s;
+  const double t = clock.time_at(step);
   if (model.sew_time > 0) {
-    s.ctx.sew = smoothstep01(double(step) * in.step().dt / double(model.sew_time));
+    s.ctx.sew = smoothstep01(t / double(model.sew_time));
   }
-  s.ctx.dt = float(in.step().dt);
+  s.ctx.dt = float(clock.settings.dt);
   s.ctx.gravity = make_vec3(scene.gravity[0], scene.gravity[1], scene.gravity[2]);
-  if (model.ease_gravity) s.ctx.gravity = s.ctx.gravity * gravity_ease(double(step) * in.step().dt, model.sew_time, model.gravity_waits);
+  if (model.ease_gravity) s.ctx.gravity = s.ctx.gravity * gravity_ease(t, model.sew_time, model.gravity_waits);
   s.coll.tolerance = scene.collision.tolerance;
   s.coll.thickness = scene.collision.thickness;
   s.coll.friction = scene.collision.friction;

@@ -27,10 +27,11 @@ constexpr uint32_t kGrain = 256;
 class CpuBackend final : public Backend {
  public:
   CpuBackend(const BackendInput& in, std::unique_ptr<Collider> collider)
-      : in_(in), scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), step_(in.step()), collider_(std::move(collider)),
+      : in_(in), scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), collider_(std::move(collider)),
         st_(model_) {
     const uint32_t n = model_.num_vertices();
-    make_integrator(integrator_, scene_.time, n, step_.iterations);
+    clock_.settings = in.step();
+    make_integrator(integrator_, scene_.time, n, clock_.settings.iterations);
     obstacles_.pose_at(0.0, obstacle_x_, obstacle_v_);
     collider_->set_obstacles(obstacle_x_.data(), obstacle_x_.size(), obstacles_.collision_indices.data(),
                              obstacles_.num_collision_triangles(), obstacles_.any_moving);
@@ -50,7 +51,12 @@ class CpuBackend final : public Backend {
 
   StepResult step(int n, uint64_t first_step, StageTimes& times) override {
     times_ = &times;
-    return std::visit([&](auto& integrator) { return run_steps(*this, integrator, n, first_step); }, integrator_);
+    return std::visit(
+        [&](auto& integrator) {
+          integrator.set_iterations(uint32_t(clock_.settings.iterations));
+          return run_steps(*this, integrator, n, first_step);
+        },
+        integrator_);
   }
 
   void download(std::vector<Vec3>& x, std::vector<Vec3>& v) override {
@@ -136,7 +142,7 @@ class CpuBackend final : public Backend {
     const auto t = Clock::now();
     if (obstacles_.any_moving) {
       obstacle_prev_ = obstacle_x_;
-      obstacles_.pose_at(double(step + 1) * step_.dt, obstacle_x_, obstacle_v_);
+      obstacles_.pose_at(clock_.time_at(step + 1), obstacle_x_, obstacle_v_);
       collider_->update_obstacles(obstacle_x_.data());
       refit_bvh(obstacle_bvh_, obstacle_x_.data(), obstacles_.collision_indices.data());
       // A deforming (skinned) body can degrade the refit tree as the cloth's does.
@@ -248,14 +254,13 @@ class CpuBackend final : public Backend {
     b.bodies_move = obstacles_.any_moving;
     b.obstacle_bvh = obstacle_bvh_.view();
     b.cloth_bvh = cloth_bvh_.view();
-    return make_step_view(in_, step, b, st_);
+    return make_step_view(in_, clock_, step, b, st_);
   }
 
   const BackendInput in_;
   const SceneDef& scene_;
   const ClothModel& model_;
   const ObstacleSet& obstacles_;
-  const StepSettings step_;
   std::unique_ptr<Collider> collider_;
   SimState<HostArray> st_;
   AnyIntegrator<HostArray> integrator_;

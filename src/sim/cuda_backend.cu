@@ -84,10 +84,11 @@ __global__ void k_probe() {}
 class CudaBackend final : public Backend {
  public:
   explicit CudaBackend(const BackendInput& in)
-      : in_(in), scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), step_(in.step()), skinning_(*in.obstacles) {
+      : in_(in), scene_(*in.scene), model_(*in.model), obstacles_(*in.obstacles), skinning_(*in.obstacles) {
     // A blocking stream: it waits for the setup copies (cudaMemcpy on the legacy default stream).
     CUDA_CHECK(cudaStreamCreate(&stream_));
     CUDA_CHECK(cudaMallocHost(reinterpret_cast<void**>(&counters_host_), sizeof(StepCounters)));
+    clock_.settings = in.step();
     upload();
   }
 
@@ -107,7 +108,12 @@ class CudaBackend final : public Backend {
     if (obstacles_.any_moving) upload_poses(n, first_step);
     call_first_ = first_step;
     times_ = &times;
-    return std::visit([&](auto& integrator) { return run_steps(*this, integrator, n, first_step); }, integrator_);
+    return std::visit(
+        [&](auto& integrator) {
+          integrator.set_iterations(uint32_t(clock_.settings.iterations));
+          return run_steps(*this, integrator, n, first_step);
+        },
+        integrator_);
   }
 
   void download(std::vector<Vec3>& x, std::vector<Vec3>& v) override {
@@ -336,7 +342,7 @@ class CudaBackend final : public Backend {
     cloth_indices_ = model_view_.triangles;
     tri_alias_ = model_view_.tri_alias;
     st_ = std::make_unique<SimState<DeviceBuffer>>(m);
-    make_integrator(integrator_, scene_.time, m.num_vertices(), step_.iterations);
+    make_integrator(integrator_, scene_.time, m.num_vertices(), clock_.settings.iterations);
 
     std::vector<Vec3> ox, ov;
     obstacles_.pose_at(0.0, ox, ov);
@@ -385,14 +391,14 @@ class CudaBackend final : public Backend {
   // The poses at the end of each of this call's steps (t + dt), uploaded once before its steps.
   void upload_poses(int n, uint64_t first_step) {
     std::vector<double> times(static_cast<size_t>(n));
-    for (int k = 0; k < n; ++k) times[size_t(k)] = double(first_step + uint64_t(k) + 1) * step_.dt;
+    for (int k = 0; k < n; ++k) times[size_t(k)] = clock_.time_at(first_step + uint64_t(k) + 1);
     skinning_.upload(times, stream_);
     if (moving_.empty()) return;
     std::vector<RigidPose> table(size_t(n) * moving_.size());
     for (int k = 0; k < n; ++k)
       for (size_t m = 0; m < moving_.size(); ++m)
         table[size_t(k) * moving_.size() + m] =
-            rigid_pose_at(obstacles_.defs[moving_[m]], double(first_step + uint64_t(k) + 1) * step_.dt);
+            rigid_pose_at(obstacles_.defs[moving_[m]], clock_.time_at(first_step + uint64_t(k) + 1));
     if (table.size() > pose_table_.size()) pose_table_.resize(table.size());
     CUDA_CHECK(cudaMemcpyAsync(pose_table_.data(), table.data(), table.size() * sizeof(RigidPose),
                                cudaMemcpyHostToDevice, stream_));
@@ -410,7 +416,7 @@ class CudaBackend final : public Backend {
     b.bodies_move = obstacles_.any_moving;
     b.obstacle_bvh = obstacle_tree_.view();
     b.cloth_bvh = cloth_.view();
-    return make_step_view(in_, step, b, *st_);
+    return make_step_view(in_, clock_, step, b, *st_);
   }
 
   BvhScene trace_scene() {
@@ -435,7 +441,6 @@ class CudaBackend final : public Backend {
   uint64_t call_first_ = 0;
   int obstacle_refits_since_build_ = 0;
 
-  const StepSettings step_;
   ModelView model_view_;                              // over model_buffers_
   std::vector<std::shared_ptr<void>> model_buffers_;  // a DeviceBuffer per model array
   const uint32_t* cloth_indices_ = nullptr;           // model_view_.triangles

@@ -228,9 +228,6 @@ struct ObstacleSet {
   }
   // World-space vertices and per-vertex velocities at simulated time t.
   void pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec3>& velocities) const;
-  // The fastest any obstacle vertex moves over [0, duration], sampled every `every` seconds (and at
-  // the end), m/s; 0 when nothing moves.
-  double max_speed(double duration, double every) const;
   // A skinned obstacle's joint matrices at simulated time t with its transform applied (`pose`), and
   // their rate of change per second (`rate`: from the poses 0.5 ms either side, one-sided at t = 0).
   // skin_obstacle_vertex turns them into a vertex's world position and surface velocity.

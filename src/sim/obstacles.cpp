@@ -160,16 +160,4 @@ void ObstacleSet::pose_at(double t, std::vector<Vec3>& vertices, std::vector<Vec
   }
 }
 
-double ObstacleSet::max_speed(double duration, double every) const {
-  if (!any_moving) return 0.0;
-  std::vector<Vec3> x, v;
-  double fastest = 0.0;
-  const long samples = std::max(1L, long(std::ceil(duration / every)));
-  for (long k = 0; k <= samples; ++k) {
-    pose_at(std::min(duration, double(k) * every), x, v);
-    for (const Vec3& u : v) fastest = std::max(fastest, double(length(u)));
-  }
-  return fastest;
-}
-
 }  // namespace raycloth

@@ -10,6 +10,7 @@
 #include "core/bytes.h"
 #include "raycloth/error.h"
 #include "sim/backend.h"
+#include "sim/body_reach.h"
 #include "sim/garment_fit.h"
 #include "sim/model.h"
 #include "sim/seams.h"
@@ -64,23 +65,11 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
   // every vertex out only while a body point moves at most about a millimetre per step (a sphere at
   // 2 m/s through three hanging layers 8 mm apart: clean at 0.6 mm per step, 1 to 2 vertices left
   // inside at 0.8 mm and more, with either integrator), so each step is done in as many substeps as
-  // keep the fastest body point within kImplicitMaxBodyMove per substep. The backend steps the
-  // substeps; this class counts whole steps.
-  step_dt_ = scene_.time.dt;
-  step_iterations_ = scene_.time.iterations;
-  if (!expl && obstacles_->any_moving) {
-    const double speed = obstacles_->max_speed(scene_.time.duration, std::min(scene_.time.dt, 1.0 / 120.0));
-    substeps_ = int(std::max(1.0, std::ceil(speed * scene_.time.dt / kImplicitMaxBodyMove - 1e-9)));
-    step_dt_ = scene_.time.dt / double(substeps_);
-    // A substep's solve starts nearer its answer (k dt^2 / m is substeps^2 times smaller): the sweeps
-    // are shared out among the substeps, at least kMinSubstepSweeps each.
-    step_iterations_ =
-        std::max(std::min(kMinSubstepSweeps, scene_.time.iterations), (scene_.time.iterations + substeps_ - 1) / substeps_);
-    if (substeps_ > 1)
-      spdlog::info("implicit integrator: {} substeps of {:g} s per step (the fastest body point moves at {:.3g} m/s)",
-                   substeps_, step_dt_, speed);
-  }
-  const BackendInput in{&scene_, model_.get(), obstacles_.get(), {step_dt_, step_iterations_}};
+  // keep every body point within reach of the cloth in that step within kImplicitMaxBodyMove per
+  // substep (substeps_now). The backend steps the substeps; this class counts whole steps.
+  if (!expl && obstacles_->any_moving)
+    reach_ = std::make_unique<BodyReach>(*model_, *obstacles_, scene_.collision.thickness + scene_.collision.tolerance);
+  const BackendInput in{&scene_, model_.get(), obstacles_.get(), {}};
   if (options.device == "cpu") {
     backend_ = make_cpu_backend(in);
   } else if (options.device == "cuda") {
@@ -110,7 +99,7 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
 // The backend again, over the model as it is now, from the state (x_, v_): a backend that takes
 // edits keeps the velocities; another starts from the model's start positions at rest.
 void Simulator::rebuild_backend() {
-  const BackendInput in{&scene_, model_.get(), obstacles_.get(), {step_dt_, step_iterations_}, time()};
+  const BackendInput in{&scene_, model_.get(), obstacles_.get(), {}, time()};
   const bool cuda = backend_->name() == "cuda";
   backend_.reset();
   backend_ = cuda ? make_cuda_backend(in) : make_cpu_backend(in);
@@ -267,9 +256,38 @@ void Simulator::step(int n) {
 
 void Simulator::advance(int n) {
   if (n <= 0) return;
-  const uint64_t k = uint64_t(substeps_);
-  StepResult r = backend_->step(n * substeps_, steps_ * k, times_);
-  if (r.bad_vertex >= 0) r.bad_step /= k;
+  if (!reach_) {
+    take(backend_->step(n, steps_, times_), n);
+    return;
+  }
+  // Step by step, each cut into its own substeps, the sweeps shared out among them: a substep's
+  // solve starts nearer its answer (k dt^2 / m is substeps^2 times smaller), at least
+  // kMinSubstepSweeps each.
+  for (int k = 0; k < n; ++k) {
+    const int sub = substeps_now();
+    const int sweeps = std::max(std::min(kMinSubstepSweeps, scene_.time.iterations), (scene_.time.iterations + sub - 1) / sub);
+    backend_->set_clock(StepClock{0, time(), {scene_.time.dt / double(sub), sweeps}});
+    StepResult r = backend_->step(sub, 0, times_);
+    r.totals.max_substeps = uint64_t(sub);
+    if (r.bad_vertex >= 0) r.bad_step = steps_;
+    take(r, 1);
+  }
+}
+
+// The substeps of the next step: as many as keep the longest way of a body point within reach of the
+// cloth over it (BodyReach) within kImplicitMaxBodyMove each.
+int Simulator::substeps_now() {
+  const std::vector<Vec3>& x = positions();
+  const std::vector<Vec3>& v = velocities();
+  const double g = std::sqrt(double(scene_.gravity[0]) * scene_.gravity[0] + double(scene_.gravity[1]) * scene_.gravity[1] +
+                             double(scene_.gravity[2]) * scene_.gravity[2]);
+  const double way = reach_->way_near_cloth(x, v, time(), scene_.time.dt, g, kImplicitMaxBodyMove);
+  return int(std::max(1.0, std::ceil(way / kImplicitMaxBodyMove - 1e-9)));
+}
+
+// What n steps the backend took left: the totals, and on a blow-up (r.bad_step, a scene step) the
+// error naming the vertex.
+void Simulator::take(const StepResult& r, int n) {
   synced_ = false;
   last_hits_ = r.hits;
   totals_.add(r.totals);
@@ -366,7 +384,7 @@ void Simulator::restore_state(ByteReader& in) {
     rebuild_backend();
   }
   stitches_welded_ = welded;
-  backend_->restore(in, steps_ * uint64_t(substeps_));
+  backend_->restore(in, steps_);
   synced_ = false;
 }
 

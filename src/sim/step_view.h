@@ -90,6 +90,7 @@ inline void add_step(StepResult& r, const StepCounters& c) {
   t.max_residual = t.max_residual > double(float_from_bits(c.residual)) ? t.max_residual : double(float_from_bits(c.residual));
   const double move = double(float_from_bits(c.obstacle_move));
   t.max_obstacle_move = t.max_obstacle_move > move ? t.max_obstacle_move : move;
+  t.solves += 1;
 }
 
 // The step's state arrays besides x and v, declared once: StepView's pointers (below) and

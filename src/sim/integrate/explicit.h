@@ -35,6 +35,8 @@ struct ExplicitEuler {
   // Its steps are short: the bound's further passes run only where a body moves, and only vertices
   // an obstacle or the contact solve pushed are held back by it.
   static constexpr bool kLongSteps = false;
+  // It has no sweeps.
+  void set_iterations(uint32_t) {}
   template <class Exec>
   void integrate(Exec& ex, const StepView& s) const {
     ex.for_each(Stage::Integrate, s.model.num_vertices, [s] RC_LAMBDA(uint32_t i) { stage_integrate(s, i); });

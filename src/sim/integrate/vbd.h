@@ -293,6 +293,9 @@ class VertexBlockDescent {
   VertexBlockDescent(size_t n, uint32_t iterations, float tolerance)
       : scratch_(n), iterations_(iterations), tolerance_(tolerance) {}
 
+  // The sweeps of the steps that follow (a substep's share: StepClock).
+  void set_iterations(uint32_t iterations) { iterations_ = iterations; }
+
   // Starts at the inertial target, takes the body planes, sweeps the colours `iterations` times
   // (each colour in parallel), and takes v' = (x' - x) / dt.
   template <class Exec>
