@@ -23,6 +23,10 @@ class ByteReader;
 struct StepSettings {
   double dt = 0;
   int iterations = 0;
+  // The steps come in runs of this many, each run one step of the scene (its substeps): the
+  // implicit integrator takes the bodies' planes at the first of a run and moves them on with the
+  // bodies in the others.
+  int substeps = 1;
 };
 
 // When a backend's steps happen: step `first` starts at simulated time `start`, and each lasts
@@ -130,6 +134,8 @@ StepView make_step_view(const BackendInput& in, const StepClock& clock, uint64_t
     s.ctx.sew = smoothstep01(t / double(model.sew_time));
   }
   s.ctx.dt = float(clock.settings.dt);
+  s.ctx.substeps = uint32_t(std::max(1, clock.settings.substeps));
+  s.ctx.substep = uint32_t((step - clock.first) % s.ctx.substeps);
   s.ctx.gravity = make_vec3(scene.gravity[0], scene.gravity[1], scene.gravity[2]);
   if (model.ease_gravity) s.ctx.gravity = s.ctx.gravity * gravity_ease(t, model.sew_time, model.gravity_waits);
   s.coll.tolerance = scene.collision.tolerance;

@@ -266,7 +266,7 @@ void Simulator::advance(int n) {
   for (int k = 0; k < n; ++k) {
     const int sub = substeps_now();
     const int sweeps = std::max(std::min(kMinSubstepSweeps, scene_.time.iterations), (scene_.time.iterations + sub - 1) / sub);
-    backend_->set_clock(StepClock{0, time(), {scene_.time.dt / double(sub), sweeps}});
+    backend_->set_clock(StepClock{0, time(), {scene_.time.dt / double(sub), sweeps, sub}});
     StepResult r = backend_->step(sub, 0, times_);
     r.totals.max_substeps = uint64_t(sub);
     if (r.bad_vertex >= 0) r.bad_step = steps_;

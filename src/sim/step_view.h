@@ -135,6 +135,8 @@ struct StepContext {
   float dt = 1e-3f;
   float sew = 1.0f;
   Vec3 gravity{};
+  // Where a scene step is cut into substeps (StepSettings::substeps): which one this is, of how many.
+  uint32_t substep = 0, substeps = 1;
 };
 
 struct StepView {

@@ -209,11 +209,22 @@ RC_HD void stage_implicit_end(const StepView& s, uint32_t i) {
 // has the strain without it). The response, the contact solve and the bound still follow,
 // unchanged: they make the guarantee. A vertex inside a body at t + dt gets no plane (the contact
 // solve pushes it out).
+//
+// Where the step is cut into substeps, the planes are taken at the first, within reach of what the
+// vertex and the body can move in all of them, and each later substep moves a plane on with its body
+// point (its offset by the point's speed along the normal): one nearest-point query a vertex a
+// step instead of one a substep.
 RC_HD void stage_implicit_plane(const StepView& s, const VbdView& v, uint32_t i) {
+  if (s.ctx.substep > 0u) {
+    const Vec3 n = v.plane_normal[i];
+    if (n.x != 0.0f || n.y != 0.0f || n.z != 0.0f) v.plane_offset[i] += dot(n, v.plane_velocity[i]) * s.ctx.dt;
+    return;
+  }
   v.plane_normal[i] = make_vec3(0, 0, 0);
   if (s.model.inv_mass[i] == 0.0f || !is_representative(s.model, i) || s.obstacle_bvh.num_prims == 0) return;
   const Vec3 x = s.x[i];
-  const float reach = s.coll.thickness + s.coll.tolerance + length(inertial_target(s, i) - x) + obstacle_reach(s);
+  const float k = float(s.ctx.substeps);
+  const float reach = s.coll.thickness + s.coll.tolerance + k * length(inertial_target(s, i) - x) + k * obstacle_reach(s);
   const ObstaclePoint q = nearest_obstacle_point(s, x, reach);
   if (!q.found) return;
   const Vec3 face = triangle_normal(s.geom.obstacle_vertices, s.geom.obstacle_indices, q.prim);
