@@ -117,55 +117,25 @@ TEST(Implicit, DrapeOnASphereAtLongStepsIsCleanOnEveryCheckedStep) {
   EXPECT_LT(lowest, 0.0f) << "the cloth did not fall round the sphere";
 }
 
-// Contact with the body inside the solve (stages.h, stage_implicit_plane): the cloth lying on the
-// sphere at 1/60 s keeps its springs near their rest length. The mean strain of the grid edges within
-// 2 cm of the sphere after 1 s is 0.8 %; it was 7.6 % when the solve ignored the body (the response
-// then stopped the vertices that met it, leaving their neighbours stretched).
-TEST(Implicit, ClothLyingOnABodyAtLongStepsIsNotStretchedByTheResponse) {
+// The cloth of the tests below, an n x n grid `size` wide dropped at 1/60 s on a sphere of `radius`
+// (moving at `velocity`), 1 s checked every 6 steps; then the mean strain of the grid edges within
+// 2 cm of the sphere, asserted below 2 %.
+void expect_cloth_on_the_sphere_unstretched(Float3 velocity) {
   const int n = 33;
   const float size = 0.6f, radius = 0.2f;
   SceneDef s = implicit(panel_scene(n, size, 0.25f, 1.0f), 1.0 / 60.0, 30);
   s.collision.thickness = 0.002f;
-  s.obstacles.push_back(test::sphere_obstacle(radius, {0, 0, 0}));
-  Simulator sim(s);
-  EXPECT_EQ(step_checked(sim, 60, 6), "");
-  const std::vector<Vec3>& x = sim.positions();
-  const float rest = size / float(n - 1);
-  double strain = 0;
-  int count = 0;
-  for (int r = 0; r < n; ++r)
-    for (int c = 0; c < n; ++c)
-      for (const int dr : {0, 1}) {
-        const int r2 = r + dr, c2 = c + 1 - dr;
-        if (r2 >= n || c2 >= n) continue;
-        const Vec3 a = x[size_t(r * n + c)], b = x[size_t(r2 * n + c2)];
-        if (length((a + b) * 0.5f) > radius + 0.02f) continue;
-        strain += std::fabs(length(b - a) / rest - 1.0f);
-        ++count;
-      }
-  ASSERT_GT(count, 100) << "too little of the cloth lies on the sphere";
-  EXPECT_LT(strain / count, 0.02) << "mean strain " << strain / count << " over " << count << " edges";
-}
-
-// The same cloth on the sphere rising at 0.2 m/s, at 1/60 s: each step is cut into 7 substeps (the
-// body moves 3.3 mm a step), and the body's planes, taken at a step's first substep, move on with
-// the sphere in the others (stage_implicit_plane). The cloth lies on it as on the still sphere:
-// 0.42 % mean strain (0.39 % with the planes taken again in every substep, as up to 0.5.8; 0.52 %
-// with the first substep's planes left where they were).
-TEST(Implicit, ClothLyingOnARisingBodyAtLongStepsIsNotStretchedByTheResponse) {
-  const int n = 33;
-  const float size = 0.6f, radius = 0.2f, speed = 0.2f;
-  SceneDef s = implicit(panel_scene(n, size, 0.25f, 1.0f), 1.0 / 60.0, 30);
-  s.collision.thickness = 0.002f;
   ObstacleDef ball = test::sphere_obstacle(radius, {0, 0, 0});
-  MotionDef m;
-  m.velocity = {0, speed, 0};
-  ball.motion = m;
+  if (velocity[0] != 0 || velocity[1] != 0 || velocity[2] != 0) {
+    MotionDef m;
+    m.velocity = velocity;
+    ball.motion = m;
+  }
   s.obstacles.push_back(ball);
   Simulator sim(s);
   EXPECT_EQ(step_checked(sim, 60, 6), "");
-  EXPECT_GT(sim.substeps(), 1);
-  const Vec3 centre = make_vec3(0, float(speed * sim.time()), 0);
+  const float t = float(sim.time());
+  const Vec3 centre = make_vec3(velocity[0] * t, velocity[1] * t, velocity[2] * t);
   const std::vector<Vec3>& x = sim.positions();
   const float rest = size / float(n - 1);
   double strain = 0;
@@ -182,6 +152,24 @@ TEST(Implicit, ClothLyingOnARisingBodyAtLongStepsIsNotStretchedByTheResponse) {
       }
   ASSERT_GT(count, 100) << "too little of the cloth lies on the sphere";
   EXPECT_LT(strain / count, 0.02) << "mean strain " << strain / count << " over " << count << " edges";
+  if (velocity[1] != 0) EXPECT_GT(sim.substeps(), 1);
+}
+
+// Contact with the body inside the solve (stages.h, stage_implicit_plane): the cloth lying on the
+// sphere at 1/60 s keeps its springs near their rest length. The mean strain of the grid edges within
+// 2 cm of the sphere after 1 s is 0.8 %; it was 7.6 % when the solve ignored the body (the response
+// then stopped the vertices that met it, leaving their neighbours stretched).
+TEST(Implicit, ClothLyingOnABodyAtLongStepsIsNotStretchedByTheResponse) {
+  expect_cloth_on_the_sphere_unstretched({0, 0, 0});
+}
+
+// The same cloth on the sphere rising at 0.2 m/s, at 1/60 s: each step is cut into 7 substeps (the
+// body moves 3.3 mm a step), and the body's planes, taken at a step's first substep, move on with
+// the sphere in the others (stage_implicit_plane). The cloth lies on it as on the still sphere:
+// 0.42 % mean strain (0.39 % with the planes taken again in every substep, as up to 0.5.8; 0.52 %
+// with the first substep's planes left where they were).
+TEST(Implicit, ClothLyingOnARisingBodyAtLongStepsIsNotStretchedByTheResponse) {
+  expect_cloth_on_the_sphere_unstretched({0, 0.2f, 0});
 }
 
 // In a step's later substeps a body plane moves on with its body point, along its normal by the

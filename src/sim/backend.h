@@ -44,7 +44,8 @@ class Backend {
  public:
   virtual ~Backend() = default;
   virtual std::string name() const = 0;
-  // Runs n steps starting at step `first_step`; stops early on a blow-up (reported in the result).
+  // Runs n steps starting at step `first_step` (timed by the clock: StepClock); stops early on a
+  // blow-up (reported in the result).
   virtual StepResult step(int n, uint64_t first_step, StageTimes& times) = 0;
   virtual void download(std::vector<Vec3>& x, std::vector<Vec3>& v) = 0;
   // The displacement bound's balls (centre and radius per vertex), for tests of its invariant;
