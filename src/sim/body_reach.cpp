@@ -27,12 +27,10 @@ using Traits = CGAL::Search_traits_adapter<Indexed, CGAL::Nth_of_tuple_property_
 using Tree = CGAL::Kd_tree<Traits>;
 using Sphere = CGAL::Fuzzy_sphere<Traits>;
 
-// The longest edge of the triangles `indices` (3 per triangle) over `x`.
-double longest_edge(const std::vector<uint32_t>& indices, const std::vector<Vec3>& x) {
-  double longest = 0;
-  for (size_t t = 0; t + 2 < indices.size(); t += 3)
-    for (int k = 0; k < 3; ++k)
-      longest = std::max(longest, double(length(x[indices[t + size_t(k)]] - x[indices[t + size_t((k + 1) % 3)]])));
+// The longest edge of triangle t of `indices` (3 per triangle) over `x`.
+float triangle_edge(const std::vector<uint32_t>& indices, const std::vector<Vec3>& x, size_t t) {
+  float longest = 0;
+  for (size_t k = 0; k < 3; ++k) longest = std::max(longest, length(x[indices[3 * t + k]] - x[indices[3 * t + (k + 1) % 3]]));
   return longest;
 }
 
@@ -49,35 +47,45 @@ BodyReach::BodyReach(const ClothModel& model, const ObstacleSet& obstacles, floa
   obstacles.pose_at(0.0, body, velocity);
   const std::vector<uint32_t>& tri = obstacles.collision_indices;
   edge_.assign(body.size(), 0.0f);
-  for (size_t t = 0; t + 2 < tri.size(); t += 3) {
-    float longest = 0;
-    for (int k = 0; k < 3; ++k) longest = std::max(longest, length(body[tri[t + size_t(k)]] - body[tri[t + size_t((k + 1) % 3)]]));
-    for (int k = 0; k < 3; ++k) edge_[tri[t + size_t(k)]] = std::max(edge_[tri[t + size_t(k)]], 1.25f * longest);
+  for (size_t t = 0; 3 * t + 2 < tri.size(); ++t) {
+    const float longest = 1.25f * triangle_edge(tri, body, t);
+    for (size_t k = 3 * t; k < 3 * t + 3; ++k) edge_[tri[k]] = std::max(edge_[tri[k]], longest);
   }
-  margin_ = margin + 1.25f * float(longest_edge(model.triangles, model.initial_positions));
+  float cloth_edge = 0;
+  for (size_t t = 0; 3 * t + 2 < model.triangles.size(); ++t)
+    cloth_edge = std::max(cloth_edge, triangle_edge(model.triangles, model.initial_positions, t));
+  margin_ = margin + 1.25f * cloth_edge;
 }
 
-double BodyReach::way_near_cloth(const std::vector<Vec3>& x, const std::vector<Vec3>& v, double t, double dt,
-                                 double gravity, double enough) const {
-  if (!obstacles_.any_moving || x.empty()) return 0.0;
-  std::vector<Vec3> b0, w0, b1, w1;
-  obstacles_.pose_at(t, b0, w0);
-  obstacles_.pose_at(t + dt, b1, w1);
-  std::vector<double> own(b0.size()), way(b0.size(), 0.0);
-  for (size_t i = 0; i < b0.size(); ++i)
-    own[i] = std::max({double(length(b1[i] - b0[i])), double(length(w0[i])) * dt, double(length(w1[i])) * dt});
+double BodyReach::way_near_cloth(const ClothState& cloth, double t, double dt, double gravity, double enough) {
+  if (!obstacles_.any_moving) return 0.0;
+  obstacles_.pose_at(t, b0_, w0_);
+  obstacles_.pose_at(t + dt, b1_, w1_);
+  const size_t nb = b0_.size();
+  own_.resize(nb);
+  way_.assign(nb, 0.0);
+  for (size_t i = 0; i < nb; ++i)
+    own_[i] = std::max({double(length(b1_[i] - b0_[i])), double(length(w0_[i])) * dt, double(length(w1_[i])) * dt});
   const std::vector<uint32_t>& tri = obstacles_.collision_indices;
   for (size_t k = 0; k + 2 < tri.size(); k += 3) {
-    const double longest = std::max({own[tri[k]], own[tri[k + 1]], own[tri[k + 2]]});
-    for (size_t j = k; j < k + 3; ++j) way[tri[j]] = std::max(way[tri[j]], longest);
+    const double longest = std::max({own_[tri[k]], own_[tri[k + 1]], own_[tri[k + 2]]});
+    for (size_t j = k; j < k + 3; ++j) way_[tri[j]] = std::max(way_[tri[j]], longest);
   }
-  std::vector<uint32_t> order(b0.size());
-  std::iota(order.begin(), order.end(), 0u);
-  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return way[a] > way[b] || (way[a] == way[b] && a < b); });
-  if (order.empty() || way[order[0]] <= enough) return order.empty() ? 0.0 : way[order[0]];
+  order_.resize(nb);
+  std::iota(order_.begin(), order_.end(), 0u);
+  const std::vector<double>& way = way_;
+  std::sort(order_.begin(), order_.end(), [&](uint32_t a, uint32_t b) { return way[a] > way[b] || (way[a] == way[b] && a < b); });
+  if (order_.empty() || way[order_[0]] <= enough) return order_.empty() ? 0.0 : way[order_[0]];
+  const std::vector<Vec3>* xp = nullptr;
+  const std::vector<Vec3>* vp = nullptr;
+  cloth(xp, vp);
+  const std::vector<Vec3>& x = *xp;
+  const std::vector<Vec3>& v = *vp;
+  if (x.empty()) return 0.0;
 
   // How far each cloth vertex can go: twice its way at its speed at t, plus gravity's dt^2.
-  std::vector<double> cloth_way(x.size());
+  std::vector<double>& cloth_way = cloth_way_;
+  cloth_way.resize(x.size());
   double farthest = 0;
   Vec3 lo = x[0], hi = x[0];
   std::vector<Indexed> points;
@@ -91,10 +99,10 @@ double BodyReach::way_near_cloth(const std::vector<Vec3>& x, const std::vector<V
   }
   const Tree tree(points.begin(), points.end());
   std::vector<Indexed> found;
-  for (uint32_t i : order) {
+  for (uint32_t i : order_) {
     if (way[i] <= enough) return way[i];
     const double reach = way[i] + double(edge_[i]) + double(margin_);  // without the cloth's way
-    const Vec3 p = b0[i];
+    const Vec3 p = b0_[i];
     // Outside the cloth's box grown by the reach: not near (no search needed).
     const double box = reach + farthest;
     if (p.x < lo.x - box || p.y < lo.y - box || p.z < lo.z - box || p.x > hi.x + box || p.y > hi.y + box ||

@@ -277,11 +277,14 @@ void Simulator::advance(int n) {
 // The substeps of the next step: as many as keep the longest way of a body point within reach of the
 // cloth over it (BodyReach) within kImplicitMaxBodyMove each.
 int Simulator::substeps_now() {
-  const std::vector<Vec3>& x = positions();
-  const std::vector<Vec3>& v = velocities();
   const double g = std::sqrt(double(scene_.gravity[0]) * scene_.gravity[0] + double(scene_.gravity[1]) * scene_.gravity[1] +
                              double(scene_.gravity[2]) * scene_.gravity[2]);
-  const double way = reach_->way_near_cloth(x, v, time(), scene_.time.dt, g, kImplicitMaxBodyMove);
+  // The cloth from the backend only where a body moves farther than one substep allows.
+  auto cloth = [this](const std::vector<Vec3>*& x, const std::vector<Vec3>*& v) {
+    x = &positions();
+    v = &velocities();
+  };
+  const double way = reach_->way_near_cloth(cloth, time(), scene_.time.dt, g, kImplicitMaxBodyMove);
   return int(std::max(1.0, std::ceil(way / kImplicitMaxBodyMove - 1e-9)));
 }
 
