@@ -74,11 +74,52 @@ RC_HD float contact_gap(float thickness, float move) {
 // The pair slots: kVertexPairs per vertex, then kEdgePairs per edge of the welded surface.
 RC_HD uint32_t contact_slots(const ModelView& m) { return m.num_vertices * kVertexPairs + m.num_edges * kEdgePairs; }
 
+// The pair search's cloth clearances. Where a body moves, every vertex looks in the cloth tree for
+// triangles within kNearFactor pair distances in every step (every substep of the implicit
+// integrator: 42 a 1/60 s step under the walking skirt), and on a garment nearly every search finds
+// nothing: a single layer's nearest triangles not a vertex's own are an edge's height away. So a
+// search also measures each vertex's clearance c: its distance to the nearest cloth triangle not its
+// own, up to kClearReach pair distances (the search box grown for it), and where the vertex was then
+// (z). Until they are measured again, with D the largest move of any vertex from its z since
+// (clear_drift), every such triangle is at least c - |y - z| - D from the vertex at y: each point of a
+// triangle moves no farther than its farthest corner. Where that exceeds kNearFactor pair distances
+// the search would find no pair and no triangle near, and is skipped. The clearances are measured
+// again once D reaches kClearSkin pair distances, or the pair distance grows. The pairs found, and
+// so every result, are the same as searching every step.
+inline constexpr float kClearSkin = 1.0f;
+inline constexpr float kClearReach = kNearFactor + 2.0f * kClearSkin;
+// Metres taken off every clearance test: the rounding of its lengths (float positions near 1 m).
+inline constexpr double kClearMargin = 1e-6;
+
+// Whether this step's search measures the clearances again (one thread, after stage_contact_reach).
+RC_HD void stage_cloth_clear_decide(const StepView& s) {
+  ClothClear& c = *s.cloth_clear_state;
+  const float reach = contact_gap(s.coll.thickness, obstacle_reach(s));
+  const float drift = float_from_bits(s.counters->clear_drift);
+  c.remeasure = !c.valid || !(drift < kClearSkin * c.reach) || reach > c.reach ? 1u : 0u;
+  if (c.remeasure) {
+    c.valid = 1u;
+    c.reach = reach;
+  }
+}
+
+// True when vertex i at y = x_next[i] has no cloth triangle (not its own) within `near` metres, by its
+// clearance (above).
+RC_HD bool cloth_clear_of(const StepView& s, uint32_t i, double near) {
+  const DVec3 d = dvec(s.x_next[i]) - dvec(s.cloth_clear_at[i]);
+  return double(s.cloth_clear[i]) - sqrt(ddot(d, d)) - double(float_from_bits(s.counters->clear_drift)) - kClearMargin >
+         near;
+}
+
 // The largest move (from x) and drift (from the ball's centre x_ref) of any vertex: how far a
-// triangle can be from where the cloth tree has it, and the filter of the pair searches.
+// triangle can be from where the cloth tree has it, and the filter of the pair searches; and the
+// largest move since the clearances were measured.
 RC_HD void stage_contact_reach(const StepView& s, uint32_t i) {
   s.contact_shift[i] = 0.0f;
-  if (!is_representative(s.model, i) || !is_finite(s.x_next[i])) return;
+  if (!is_finite(s.x_next[i])) return;
+  const DVec3 z = dvec(s.x_next[i]) - dvec(s.cloth_clear_at[i]);
+  atomic_max_nonneg(&s.counters->clear_drift, float(sqrt(ddot(z, z))));
+  if (!is_representative(s.model, i)) return;
   atomic_max_nonneg(&s.counters->move_max, length(s.x_next[i] - s.x[i]));
   atomic_max_nonneg(&s.counters->drift_max, length(s.x_next[i] - s.x_ref[i]));
 }
@@ -135,16 +176,28 @@ RC_HD Vec3 unit_or(DVec3 d, Vec3 fallback) {
 RC_HD uint32_t stage_contact_find_vertex(const StepView& s, uint32_t i) {
   ContactPair* out = s.pairs + size_t(i) * kVertexPairs;
   for (uint32_t k = 0; k < kVertexPairs; ++k) out[k].v[0] = kNoPair;
+  // A vertex that does not measure its clearance when the others do gets none (0: it searches).
+  const bool measure = s.cloth_clear_state->remeasure != 0u;
+  if (measure) {
+    s.cloth_clear[i] = 0.0f;
+    s.cloth_clear_at[i] = s.x_next[i];
+  }
   if (!s.cloth_contact || !is_representative(s.model, i) || !is_finite(s.x_next[i]) || contact_far(s, i)) return 0u;
   const Vec3 y = s.x_next[i];
   const DVec3 dy = dvec(y);
   const double reach = contact_gap(s.coll.thickness, obstacle_reach(s));
   const double limit2 = reach * reach, near2 = kNearFactor * kNearFactor * limit2;
+  if (!measure && cloth_clear_of(s, i, kNearFactor * reach)) {
+    if (contact_near_by_bound(s, i, float(reach))) s.flags[i] |= kFlagNearCloth;
+    return 0u;
+  }
   uint32_t found = 0, keys[kVertexPairs];
   double d2s[kVertexPairs];
   ContactPair items[kVertexPairs];
   bool near = false;
-  Aabb query = aabb_grow(point_box(y), kNearFactor * float(reach) + float_from_bits(s.counters->move_max));
+  double clear2 = INFINITY;
+  const float look = (measure ? kClearReach : kNearFactor) * float(reach);
+  Aabb query = aabb_grow(point_box(y), look + float_from_bits(s.counters->move_max));
   bvh_for_each_overlap(s.cloth_bvh, query, [&](uint32_t t) {
     const uint32_t* c = s.model.triangles + 3 * t;
     // Its own triangles (corners are welded). The two vertices of an open stitch are cloth to each
@@ -152,6 +205,7 @@ RC_HD uint32_t stage_contact_find_vertex(const StepView& s, uint32_t i) {
     if (c[0] == i || c[1] == i || c[2] == i) return;
     const DVec3 a = dvec(s.x_next[c[0]]), b = dvec(s.x_next[c[1]]), d = dvec(s.x_next[c[2]]);
     const TrianglePoint q = closest_on_triangle(dy, a, b, d);
+    if (q.dist2 < clear2) clear2 = q.dist2;
     if (q.dist2 < near2) near = true;
     if (!(q.dist2 < limit2)) return;
     ContactPair p;
@@ -175,6 +229,8 @@ RC_HD uint32_t stage_contact_find_vertex(const StepView& s, uint32_t i) {
   // a tight fold. The bound's nearest feature is measured edge to edge too, so it catches those.
   if (!near && contact_near_by_bound(s, i, float(reach))) near = true;
   if (near) s.flags[i] |= kFlagNearCloth;
+  // Every triangle within `look` of y was visited (the tree's boxes at x are within move_max of y's).
+  if (measure) s.cloth_clear[i] = float(fmin(sqrt(clear2), double(look)));
   for (uint32_t k = 0; k < found; ++k) {
     out[k] = items[k];
     list_pair(s, uint32_t(out + k - s.pairs));

@@ -61,6 +61,7 @@ void run_contact_solve(Exec& ex, const StepView& s) {
   // exactly): the pair search, which would double the default scene's step, is left out.
   if (!s.bodies_move) return;
   ex.for_each(Stage::Contact, n, [s] RC_LAMBDA(uint32_t i) { stage_contact_reach(s, i); });
+  ex.for_each(Stage::Contact, 1, [s] RC_LAMBDA(uint32_t) { stage_cloth_clear_decide(s); });
   const uint32_t slots = contact_slots(s.model);
   ex.for_each(Stage::Contact, n, [s] RC_LAMBDA(uint32_t i) { stage_contact_find_vertex(s, i); });
   ex.for_each(Stage::Contact, s.model.num_edges, [s] RC_LAMBDA(uint32_t e) { stage_contact_find_edge(s, e); });

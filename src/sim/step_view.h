@@ -40,6 +40,7 @@ inline constexpr uint32_t kRefreshNone = 0u, kRefreshPartial = 1u, kRefreshFull 
   X(pass_moved, 0u)    /* 1 when the last further pass moved a vertex (else the next would change nothing) */ \
   X(residual, 0u)      /* float bits: the implicit integrator's largest step in its last sweep (metres) */   \
   X(obstacle_move, 0u) /* float bits: the largest move of an obstacle vertex in this step (obstacle_reach) */ \
+  X(clear_drift, 0u)   /* float bits: the largest move of a vertex since its cloth clearance was measured */   \
   X(bad_vertex, 0xFFFFFFFFu) /* smallest vertex that blew up */
 
 struct StepCounters {
@@ -68,6 +69,15 @@ struct ContactPair {
 inline constexpr uint32_t kBoundPlanes = 4;
 struct BoundPlanes {
   Vec3 n[kBoundPlanes] = {};
+};
+
+// The contact pair search's cloth clearances (sim/contact.h, stage_cloth_clear_decide): whether they
+// hold (0 until the first search measures them, and again whenever the state is built anew), whether
+// this step's search measures them again, and the pair distance (contact_gap) they were measured for.
+struct ClothClear {
+  uint32_t valid = 0;
+  uint32_t remeasure = 0;
+  float reach = 0.0f;
 };
 
 // What a batch of steps did (run_steps in sim/step.h, from the counters).
@@ -127,6 +137,12 @@ inline void add_step(StepResult& r, const StepCounters& c) {
   X(uint32_t, pair_list, kPerPairSlot, 0u, false)                                                             \
   X(FixedVec3, push, kPerVertex, FixedVec3(), false)                                                          \
   X(uint32_t, push_count, kPerVertex, 0u, false)                                                              \
+  /* The pair search's cloth clearances: each vertex's distance to the nearest cloth triangle not its */     \
+  /* own (up to kClearReach pair distances), where it was then, and whether they hold. Not kept: a */        \
+  /* state built anew measures them again at its first search. */                                            \
+  X(float, cloth_clear, kPerVertex, 0.0f, false)                                                              \
+  X(Vec3, cloth_clear_at, kPerVertex, Vec3{}, false)                                                          \
+  X(ClothClear, cloth_clear_state, kOne, ClothClear(), false)                                                 \
   X(StepCounters, counters, kOne, StepCounters(), true) /* the step's counters */
 
 // The step's own values (after Box2D's b2StepContext): the time step, how far seams have closed at
