@@ -26,16 +26,22 @@ struct ObstaclePoint {
 
 inline constexpr uint32_t kUnderFaces = 4;
 
-RC_HD ObstaclePoint nearest_obstacle_point(const StepView& s, Vec3 p, float reach) {
+// With `look` above reach and `nearest2` given, the faces within `look` are visited too, and
+// *nearest2 becomes the squared distance to the nearest of them (infinite where none is); the point
+// returned is the same as without.
+RC_HD ObstaclePoint nearest_obstacle_point(const StepView& s, Vec3 p, float reach, float look = 0.0f,
+                                           double* nearest2 = nullptr) {
   ObstaclePoint best;
   const Vec3* ov = s.geom.obstacle_vertices;
   const uint32_t* oi = s.geom.obstacle_indices;
   const DVec3 dp = dvec(p);
-  Aabb query = aabb_grow(point_box(p), reach);
+  Aabb query = aabb_grow(point_box(p), nearest2 ? fmaxf(reach, look) : reach);
   double limit2 = double(reach) * double(reach);
+  if (nearest2) *nearest2 = INFINITY;
   bvh_for_each_overlap(s.obstacle_bvh, query, [&](uint32_t t) {
     const DVec3 a = dvec(ov[oi[3 * t]]), b = dvec(ov[oi[3 * t + 1]]), c = dvec(ov[oi[3 * t + 2]]);
     const TrianglePoint q = closest_on_triangle(dp, a, b, c);
+    if (nearest2 && q.dist2 < *nearest2) *nearest2 = q.dist2;
     if (q.dist2 > limit2) return;
     const DVec3 point = a * q.wa + b * q.wb + c * q.wc;
     const DVec3 e1 = b - a, e2 = c - a;

@@ -110,6 +110,7 @@ void run_respond(Exec& ex, Integrator& integrator, const StepView& s) {
   ex.cast(s.rays, n, s.hits);
   ex.sum(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { return stage_respond_contact(s, i); }, &c->hits);
   integrator.after_response(ex, s);
+  ex.for_each(Stage::Respond, 1, [s] RC_LAMBDA(uint32_t) { stage_body_moved(s); });
   ex.for_each(Stage::Respond, n, [s] RC_LAMBDA(uint32_t i) { stage_obstacles(s, i); });
 }
 

@@ -143,6 +143,13 @@ inline void add_step(StepResult& r, const StepCounters& c) {
   X(float, cloth_clear, kPerVertex, 0.0f, false)                                                              \
   X(Vec3, cloth_clear_at, kPerVertex, Vec3{}, false)                                                          \
   X(ClothClear, cloth_clear_state, kOne, ClothClear(), false)                                                 \
+  /* The obstacle stage's body clearances (sim/stages.h, stage_obstacles): each vertex's distance to the */  \
+  /* bodies (up to kBodyClearLook beyond its query's reach; 0: none), where it was then and how far the */   \
+  /* bodies had moved in all (body_moved, summed over the steps) then. Not kept: measured again. */           \
+  X(float, body_clear, kPerVertex, 0.0f, false)                                                               \
+  X(Vec3, body_clear_at, kPerVertex, Vec3{}, false)                                                           \
+  X(double, body_clear_since, kPerVertex, 0.0, false)                                                         \
+  X(double, body_moved, kOne, 0.0, false)                                                                     \
   X(StepCounters, counters, kOne, StepCounters(), true) /* the step's counters */
 
 // The step's own values (after Box2D's b2StepContext): the time step, how far seams have closed at
