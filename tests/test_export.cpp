@@ -465,5 +465,43 @@ TEST(Summary, NiceAxesEndOnRoundNumbers) {
   EXPECT_DOUBLE_EQ(log.hi, 10);
 }
 
+// A run checks each frame beside the steps of the next (a thread of its own), unless a caller is
+// shown every frame (on_frame), which then checks it before the call. Both report the same: a press
+// box squeezing cloth into a table box fails some frames (docs/collision.md, the exact check).
+TEST(Export, FramesCheckedBesideTheStepsReportWhatFramesCheckedInTurnDo) {
+  const SceneDef s = parse_scene(R"({
+    "name": "squeeze", "time": {"dt": 0.0004, "duration": 0.4, "fps": 30},
+    "materials": [{"name": "cotton", "density": 0.2, "stretch": 200, "shear": 40, "bend": 4, "damping": 1.0}],
+    "panels": [{"name": "cloth", "material": "cotton", "size": [0.6, 0.6], "resolution": [11, 11],
+                "position": [0, 0.21, 0]}],
+    "obstacles": [{"name": "table", "type": "box", "size": [0.4, 0.2, 0.4], "position": [0, 0.1, 0]},
+                  {"name": "press", "type": "box", "size": [0.2, 0.2, 0.2], "position": [0, 0.35, 0],
+                   "motion": {"velocity": [0, -0.5, 0]}}]})",
+                                 "<squeeze>");
+  RunOptions opt;
+  opt.quiet = true;
+  opt.out_dir = fresh_dir("check_beside");
+  const RunReport beside = run_scene(s, opt);
+  std::vector<long> shown;
+  opt.out_dir = fresh_dir("check_in_turn");
+  opt.on_frame = [&](Simulator&, const FrameRecord& f) { shown.push_back(f.vertices_inside); };
+  const RunReport in_turn = run_scene(s, opt);
+  ASSERT_EQ(beside.frames.size(), in_turn.frames.size());
+  ASSERT_EQ(shown.size(), in_turn.frames.size());
+  for (size_t k = 0; k < beside.frames.size(); ++k) {
+    EXPECT_EQ(beside.frames[k].crossings, in_turn.frames[k].crossings) << "frame " << k;
+    EXPECT_EQ(beside.frames[k].vertices_inside, in_turn.frames[k].vertices_inside) << "frame " << k;
+    EXPECT_EQ(beside.frames[k].pinched, in_turn.frames[k].pinched) << "frame " << k;
+    EXPECT_EQ(shown[k], in_turn.frames[k].vertices_inside) << "frame " << k;  // the caller saw it checked
+    EXPECT_GE(beside.frames[k].crossings, 0) << "frame " << k;
+  }
+  EXPECT_EQ(beside.check.frames_checked, beside.frames.size());
+  EXPECT_GT(beside.check.bad_frames, 0u);
+  EXPECT_EQ(beside.check.bad_frames, in_turn.check.bad_frames);
+  EXPECT_EQ(beside.check.first_bad_frame, in_turn.check.first_bad_frame);
+  EXPECT_EQ(beside.check.first_problem, in_turn.check.first_problem);
+  EXPECT_EQ(beside.check.max_vertices_inside, in_turn.check.max_vertices_inside);
+}
+
 }  // namespace
 }  // namespace raycloth
