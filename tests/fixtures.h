@@ -72,6 +72,17 @@ inline SceneDef panel_scene(int n, float size, float y, float damping = 0.0f) {
   return s;
 }
 
+// A press box driven down into a table box squeezes a sheet between them: no response can keep every
+// vertex out of both, so frames fail the exact check (a run that must say so).
+inline const char* const kSqueezeSceneJson = R"({
+    "name": "squeeze", "time": {"dt": 0.0004, "duration": 0.4, "fps": 30},
+    "materials": [{"name": "cotton", "density": 0.2, "stretch": 200, "shear": 40, "bend": 4, "damping": 1.0}],
+    "panels": [{"name": "cloth", "material": "cotton", "size": [0.6, 0.6], "resolution": [11, 11],
+                "position": [0, 0.21, 0]}],
+    "obstacles": [{"name": "table", "type": "box", "size": [0.4, 0.2, 0.4], "position": [0, 0.1, 0]},
+                  {"name": "press", "type": "box", "size": [0.2, 0.2, 0.2], "position": [0, 0.35, 0],
+                   "motion": {"velocity": [0, -0.5, 0]}}]})";
+
 inline ObstacleDef sphere_obstacle(float radius, Float3 at) {
   ObstacleDef o;
   o.name = "sphere";

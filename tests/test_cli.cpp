@@ -8,6 +8,8 @@
 #include <sstream>
 #include <string>
 
+#include "fixtures.h"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -201,14 +203,7 @@ TEST(Cli, RunWhosePenetrationCheckFailsExitsOneWithEverythingWritten) {
   // every vertex out of both, and the run must say so rather than end as a success.
   const fs::path dir = fresh_dir("squeeze");
   fs::create_directories(dir);
-  std::ofstream(dir / "squeeze.json") << R"({
-    "name": "squeeze", "time": {"dt": 0.0004, "duration": 0.4, "fps": 30},
-    "materials": [{"name": "cotton", "density": 0.2, "stretch": 200, "shear": 40, "bend": 4, "damping": 1.0}],
-    "panels": [{"name": "cloth", "material": "cotton", "size": [0.6, 0.6], "resolution": [11, 11],
-                "position": [0, 0.21, 0]}],
-    "obstacles": [{"name": "table", "type": "box", "size": [0.4, 0.2, 0.4], "position": [0, 0.1, 0]},
-                  {"name": "press", "type": "box", "size": [0.2, 0.2, 0.2], "position": [0, 0.35, 0],
-                   "motion": {"velocity": [0, -0.5, 0]}}]})";
+  std::ofstream(dir / "squeeze.json") << raycloth::test::kSqueezeSceneJson;
   const fs::path out = dir / "out";
   const Result r = run_cli("run " + (dir / "squeeze.json").string() + " --quiet --out " + out.string(), dir);
   EXPECT_EQ(r.code, 1) << r.err;

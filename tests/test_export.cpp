@@ -466,18 +466,10 @@ TEST(Summary, NiceAxesEndOnRoundNumbers) {
 }
 
 // A run checks each frame beside the steps of the next (a thread of its own), unless a caller is
-// shown every frame (on_frame), which then checks it before the call. Both report the same: a press
-// box squeezing cloth into a table box fails some frames (docs/collision.md, the exact check).
+// shown every frame (on_frame), which then checks it before the call. Both report the same on the
+// squeeze (a press box squeezing cloth into a table box), which fails some frames.
 TEST(Export, FramesCheckedBesideTheStepsReportWhatFramesCheckedInTurnDo) {
-  const SceneDef s = parse_scene(R"({
-    "name": "squeeze", "time": {"dt": 0.0004, "duration": 0.4, "fps": 30},
-    "materials": [{"name": "cotton", "density": 0.2, "stretch": 200, "shear": 40, "bend": 4, "damping": 1.0}],
-    "panels": [{"name": "cloth", "material": "cotton", "size": [0.6, 0.6], "resolution": [11, 11],
-                "position": [0, 0.21, 0]}],
-    "obstacles": [{"name": "table", "type": "box", "size": [0.4, 0.2, 0.4], "position": [0, 0.1, 0]},
-                  {"name": "press", "type": "box", "size": [0.2, 0.2, 0.2], "position": [0, 0.35, 0],
-                   "motion": {"velocity": [0, -0.5, 0]}}]})",
-                                 "<squeeze>");
+  const SceneDef s = parse_scene(test::kSqueezeSceneJson, "<squeeze>");
   RunOptions opt;
   opt.quiet = true;
   opt.out_dir = fresh_dir("check_beside");

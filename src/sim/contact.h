@@ -88,27 +88,22 @@ RC_HD uint32_t contact_slots(const ModelView& m) { return m.num_vertices * kVert
 // so every result, are the same as searching every step.
 inline constexpr float kClearSkin = 1.0f;
 inline constexpr float kClearReach = kNearFactor + 2.0f * kClearSkin;
-// Metres taken off every clearance test: the rounding of its lengths (float positions near 1 m).
-inline constexpr double kClearMargin = 1e-6;
 
 // Whether this step's search measures the clearances again (one thread, after stage_contact_reach).
+// Never measured, their pair distance is 0, below any step's (the thickness at least).
 RC_HD void stage_cloth_clear_decide(const StepView& s) {
   ClothClear& c = *s.cloth_clear_state;
   const float reach = contact_gap(s.coll.thickness, obstacle_reach(s));
   const float drift = float_from_bits(s.counters->clear_drift);
-  c.remeasure = !c.valid || !(drift < kClearSkin * c.reach) || reach > c.reach ? 1u : 0u;
-  if (c.remeasure) {
-    c.valid = 1u;
-    c.reach = reach;
-  }
+  c.remeasure = !(drift < kClearSkin * c.reach) || reach > c.reach ? 1u : 0u;
+  if (c.remeasure) c.reach = reach;
 }
 
 // True when vertex i at y = x_next[i] has no cloth triangle (not its own) within `near` metres, by its
 // clearance (above).
 RC_HD bool cloth_clear_of(const StepView& s, uint32_t i, double near) {
-  const DVec3 d = dvec(s.x_next[i]) - dvec(s.cloth_clear_at[i]);
-  return double(s.cloth_clear[i]) - sqrt(ddot(d, d)) - double(float_from_bits(s.counters->clear_drift)) - kClearMargin >
-         near;
+  return still_clear(s.cloth_clear[i], s.cloth_clear_at[i], s.x_next[i], double(float_from_bits(s.counters->clear_drift)),
+                     near);
 }
 
 // The largest move (from x) and drift (from the ball's centre x_ref) of any vertex: how far a

@@ -63,17 +63,23 @@ RC_HD uint32_t stage_respond_contact(const StepView& s, uint32_t i) {
 // than c - |y - z| - B to the vertex at y; where that exceeds the reach, the query would find nothing
 // and is skipped, with the same result. Each vertex measures again whenever it queries.
 inline constexpr float kBodyClearLook = 0.006f;
-// Metres taken off the test: the rounding of its lengths (float positions near 1 m).
-inline constexpr double kBodyClearMargin = 1e-6;
+// Metres taken off every clearance test (here and sim/contact.h): the rounding of its lengths (float
+// positions near 1 m).
+inline constexpr double kClearMargin = 1e-6;
+
+// A clearance test: nothing was within `clear` of z, the point is now at p, and what it could meet has
+// moved at most `moved` since; true when nothing can be within `reach` of p.
+RC_HD bool still_clear(float clear, Vec3 z, Vec3 p, double moved, double reach) {
+  const DVec3 d = dvec(p) - dvec(z);
+  return double(clear) - sqrt(ddot(d, d)) - moved - kClearMargin > reach;
+}
 
 // The bodies' moves, summed (one thread, once a step, before the obstacle stage).
 RC_HD void stage_body_moved(const StepView& s) { *s.body_moved += double(obstacle_reach(s)); }
 
 // True when no body is within `reach` of vertex i at p, by its clearance.
 RC_HD bool body_clear_of(const StepView& s, uint32_t i, Vec3 p, float reach) {
-  const DVec3 d = dvec(p) - dvec(s.body_clear_at[i]);
-  return double(s.body_clear[i]) - sqrt(ddot(d, d)) - (*s.body_moved - s.body_clear_since[i]) - kBodyClearMargin >
-         double(reach);
+  return still_clear(s.body_clear[i], s.body_clear_at[i], p, *s.body_moved - s.body_clear_since[i], double(reach));
 }
 
 // Obstacles at t + dt: a vertex inside, or nearer than the thickness, goes to the thickness outside

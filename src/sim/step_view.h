@@ -71,11 +71,10 @@ struct BoundPlanes {
   Vec3 n[kBoundPlanes] = {};
 };
 
-// The contact pair search's cloth clearances (sim/contact.h, stage_cloth_clear_decide): whether they
-// hold (0 until the first search measures them, and again whenever the state is built anew), whether
-// this step's search measures them again, and the pair distance (contact_gap) they were measured for.
+// The contact pair search's cloth clearances (sim/contact.h, stage_cloth_clear_decide): whether this
+// step's search measures them again, and the pair distance (contact_gap) they were measured for (0
+// until the first search measures them, and again whenever the state is built anew).
 struct ClothClear {
-  uint32_t valid = 0;
   uint32_t remeasure = 0;
   float reach = 0.0f;
 };
