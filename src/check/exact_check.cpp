@@ -20,6 +20,8 @@
 #include <memory>
 #include <mutex>
 
+#include "check/winding.h"
+
 namespace raycloth {
 
 namespace {
@@ -71,27 +73,6 @@ std::pair<uint32_t, uint32_t> group_range(const CheckMesh& m, size_t g) {
   const uint32_t last = g + 1 < m.group_first_triangle.size() ? m.group_first_triangle[g + 1]
                                                               : uint32_t(m.num_triangles());
   return {first, last};
-}
-
-// Generalized winding number of the triangles [first, last) of m around p (Jacobson et al. 2013):
-// the summed signed solid angles over 4 pi, by Van Oosterom and Strackee's formula.
-double winding_number(const CheckMesh& m, uint32_t first, uint32_t last, const DPoint& p) {
-  double sum = 0;
-  for (uint32_t t = first; t < last; ++t) {
-    double v[3][3], len[3];
-    for (int k = 0; k < 3; ++k) {
-      const Vec3& q = m.vertices[m.triangles[3 * t + k]];
-      for (int d = 0; d < 3; ++d) v[k][d] = coord(q, d) - p[d];
-      len[k] = std::sqrt(v[k][0] * v[k][0] + v[k][1] * v[k][1] + v[k][2] * v[k][2]);
-    }
-    auto dot = [&](int i, int j) { return v[i][0] * v[j][0] + v[i][1] * v[j][1] + v[i][2] * v[j][2]; };
-    const double det = v[0][0] * (v[1][1] * v[2][2] - v[1][2] * v[2][1]) -
-                       v[0][1] * (v[1][0] * v[2][2] - v[1][2] * v[2][0]) +
-                       v[0][2] * (v[1][0] * v[2][1] - v[1][1] * v[2][0]);
-    const double den = len[0] * len[1] * len[2] + dot(0, 1) * len[2] + dot(1, 2) * len[0] + dot(2, 0) * len[1];
-    sum += 2.0 * std::atan2(det, den);
-  }
-  return sum / (4.0 * M_PI);
 }
 
 }  // namespace
@@ -275,9 +256,10 @@ std::vector<VertexInside> find_vertices_inside(const CheckMesh& cloth, const Che
       }
     } else {
       if (report) ++report->open_obstacles;
+      const WindingTree winding(obstacles.vertices, obstacles.triangles, first, last);
       tbb::parallel_for(size_t(0), used.size(), [&](size_t k) {
         const DPoint p = dpoint(cloth.vertices[used[k]]);
-        inside[k] = in_box(p) && std::abs(winding_number(obstacles, first, last, p)) >= 0.5;
+        inside[k] = in_box(p) && std::abs(winding(p)) >= 0.5;
       });
     }
     const size_t begin = found.size();

@@ -9,7 +9,8 @@
 //   edge touching the triangle's plane or lying in it is contact.
 // - Cloth vertices inside obstacles: for a closed obstacle (every edge on two faces once duplicate
 //   points are merged) CGAL's Side_of_triangle_mesh, exact, on the boundary counting as contact;
-//   for an open one (a body with holes) the generalized winding number >= 1/2, in double.
+//   for an open one (a body with holes) the generalized winding number >= 1/2, in double, summed
+//   over a tree (check/winding.h).
 // - Pinches: where the body itself brings two of its surfaces closer than twice the cloth's
 //   thickness (a hand against a hip), no position of the cloth between them is outside both. A
 //   vertex strictly inside an obstacle is *pinched* when the body's own gap at its way out is below
