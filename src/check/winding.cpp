@@ -100,7 +100,7 @@ WindingTree::WindingTree(const std::vector<Vec3>& vertices, const std::vector<ui
   }
   std::vector<uint32_t> order(last - first);
   for (uint32_t k = 0; k < order.size(); ++k) order[k] = k;
-  tri_ids_.resize(order.size());
+  std::vector<std::array<uint32_t, 3>> tri_ids(order.size());  // merged vertex ids of tris_
   tris_.resize(order.size());
   // The tree over `order`, then the triangles in its order.
   nodes_.reserve(2 * order.size() / kLeafTriangles + 2);
@@ -142,8 +142,8 @@ WindingTree::WindingTree(const std::vector<Vec3>& vertices, const std::vector<ui
   }
   for (uint32_t k = 0; k < order.size(); ++k) {
     for (int c = 0; c < 3; ++c) {
-      tri_ids_[k][c] = id[3 * order[k] + c];
-      tris_[k][c] = points_[tri_ids_[k][c]];
+      tri_ids[k][c] = id[3 * order[k] + c];
+      tris_[k][c] = points_[tri_ids[k][c]];
     }
   }
   // The boundaries, children before parents (a child's index is always above its parent's); each
@@ -154,7 +154,7 @@ WindingTree::WindingTree(const std::vector<Vec3>& vertices, const std::vector<ui
     std::vector<std::array<uint32_t, 2>>& b = boundary[n];
     if (node.child == 0) {
       for (uint32_t k = node.tri_begin; k < node.tri_end; ++k)
-        for (int c = 0; c < 3; ++c) b.push_back({tri_ids_[k][c], tri_ids_[k][(c + 1) % 3]});
+        for (int c = 0; c < 3; ++c) b.push_back({tri_ids[k][c], tri_ids[k][(c + 1) % 3]});
     } else {
       for (uint32_t c = node.child; c < node.child + 2; ++c) {
         b.insert(b.end(), boundary[c].begin(), boundary[c].end());

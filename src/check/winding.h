@@ -61,7 +61,6 @@ class WindingTree {
 
   std::vector<Node> nodes_;
   std::vector<std::array<WPoint, 3>> tris_;
-  std::vector<std::array<uint32_t, 3>> tri_ids_;  // merged vertex ids of tris_
   std::vector<WPoint> points_;                    // positions of the merged ids
   std::vector<std::array<uint32_t, 2>> edges_;
 };

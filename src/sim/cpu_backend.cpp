@@ -161,12 +161,18 @@ class CpuBackend final : public Backend {
     return s;
   }
 
+  // f(i) for i in [0, n), in ranges of at least `grain`.
+  template <class F>
+  static void parallel(uint32_t n, uint32_t grain, F&& f) {
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, grain), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t i = r.begin(); i != r.end(); ++i) f(i);
+    });
+  }
+
   template <class F>
   void for_each(Stage stage, uint32_t n, F&& f) {
     const auto t = Clock::now();
-    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, kGrain), [&](const tbb::blocked_range<uint32_t>& r) {
-      for (uint32_t i = r.begin(); i != r.end(); ++i) f(i);
-    });
+    parallel(n, kGrain, f);
     add_time(stage, t);
   }
 
@@ -175,10 +181,7 @@ class CpuBackend final : public Backend {
   template <class F>
   void phases(Stage stage, const PhaseSizes& p, F&& f) {
     const auto t = Clock::now();
-    for (uint32_t q = 0; q < p.count; ++q)
-      tbb::parallel_for(tbb::blocked_range<uint32_t>(0, p.size[q], kPhaseGrain), [&](const tbb::blocked_range<uint32_t>& r) {
-        for (uint32_t k = r.begin(); k != r.end(); ++k) f(q, k);
-      });
+    for (uint32_t q = 0; q < p.count; ++q) parallel(p.size[q], kPhaseGrain, [&](uint32_t k) { f(q, k); });
     add_time(stage, t);
   }
 
