@@ -178,6 +178,22 @@ RC_HD float bound_pad(const StepView& s, uint32_t j) {
   return refreshing(s, j) ? kBoundFactor * s.bound_radius[j] : allowance_of(s, j);
 }
 
+// The farthest vertex i's look-ahead need reach on a refresh (a hair beyond its distance to its witness,
+// RAYCLOTH_MODEL_ARRAYS: bound_witness, with every vertex at its ball's new centre), INFINITY without
+// a witness. The refresh measures i against its witness, a triangle sharing no vertex with it, so i's
+// nearest non-adjacent feature is never farther; a larger radius finds more pairs, none of them
+// nearer (on cloth lying smooth its own panel's next ring is that near: about 0.7 of an edge, where
+// the look-ahead reached 1.5 mean edges). Any radius keeps the invariant (stage_bound).
+RC_HD float witness_radius(const StepView& s, uint32_t i, bool partial) {
+  const uint32_t t = s.model.bound_witness ? s.model.bound_witness[i] : kNoWitness;
+  if (t == kNoWitness) return INFINITY;
+  const uint32_t* c = s.model.triangles + 3 * t;
+  // A partial refresh leaves the balls of unmarked vertices where they were.
+  auto centre = [&](uint32_t j) { return dvec(!partial || refreshing(s, j) ? s.x[j] : s.x_ref[j]); };
+  const double d2 = closest_on_triangle(dvec(s.x[i]), centre(c[0]), centre(c[1]), centre(c[2])).dist2;
+  return float(sqrt(d2) * (1.0 + 1e-4) + 1e-9);
+}
+
 // On a refresh: the ball's centre moves to x and the look-ahead radius follows the vertex's move.
 // A full refresh does this for every vertex, a partial one for the marked vertices; a partial
 // refresh also finds the largest pad over the vertices of the welded surface.
@@ -197,7 +213,7 @@ RC_HD void stage_bound_reset(const StepView& s, uint32_t i, uint32_t pass) {
     const float move = length(s.x_next[i] - s.x[i]);
     const float lo = kBoundMinRadius * s.mean_edge, hi = kBoundMaxRadius * s.mean_edge;
     const float want = is_finite(s.x_next[i]) ? kBoundLookahead * move / kBoundFactor : lo;
-    s.bound_radius[i] = fminf(hi, fmaxf(lo, want));
+    s.bound_radius[i] = fminf(fminf(hi, fmaxf(lo, want)), witness_radius(s, i, partial));
   }
   if (partial && is_representative(s.model, i)) atomic_max_nonneg(&s.counters->pad_max, bound_pad(s, i));
 }

@@ -37,6 +37,41 @@ std::vector<Vec3> welded_positions(const std::vector<uint32_t>& alias, const std
   return p;
 }
 
+namespace {
+
+// Each vertex's witness for the bound (RAYCLOTH_MODEL_ARRAYS: bound_witness): of the collision
+// triangles that do not hold vertex i but hold a vertex it shares a collision edge with, the nearest
+// to it at the start. The bound measures vertex i against it, so i's nearest non-adjacent feature is
+// never farther than it (sim/bound.h, witness_radius).
+void find_bound_witnesses(ClothModel& m) {
+  const uint32_t n = m.num_vertices(), nt = m.num_collision_triangles();
+  const std::vector<uint32_t>& tri = m.collision_triangles;
+  std::vector<uint32_t> offset(n + 1, 0), entry(3 * size_t(nt));
+  for (uint32_t v : tri) ++offset[v + 1];
+  for (uint32_t i = 0; i < n; ++i) offset[i + 1] += offset[i];
+  std::vector<uint32_t> at(offset.begin(), offset.end() - 1);
+  for (uint32_t k = 0; k < tri.size(); ++k) entry[at[tri[k]]++] = k / 3;
+  m.bound_witness.assign(n, kNoWitness);
+  const std::vector<Vec3>& x = m.initial_positions;
+  for (uint32_t i = 0; i < n; ++i) {
+    double best = INFINITY;
+    for (uint32_t a = offset[i]; a < offset[i + 1]; ++a)
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t j = tri[3 * entry[a] + k];
+        if (j == i) continue;
+        for (uint32_t b = offset[j]; b < offset[j + 1]; ++b) {
+          const uint32_t t = entry[b];
+          const uint32_t* c = &tri[3 * size_t(t)];
+          if (c[0] == i || c[1] == i || c[2] == i) continue;
+          const double d2 = closest_on_triangle(dvec(x[i]), dvec(x[c[0]]), dvec(x[c[1]]), dvec(x[c[2]])).dist2;
+          if (d2 < best || (d2 == best && t < m.bound_witness[i])) best = d2, m.bound_witness[i] = t;
+        }
+      }
+  }
+}
+
+}  // namespace
+
 void weld_seams(ClothModel& m) {
   const uint32_t n = m.num_vertices();
   m.initial_positions = welded_positions(m.alias, m.initial_positions);
@@ -84,6 +119,7 @@ void weld_seams(ClothModel& m) {
       char& owned = has_owner[m.collision_triangles[t + k]];
       if (!owned) owned = 1, m.tri_edge_owner[t / 3] |= uint8_t(1u << (3 + k));
     }
+  find_bound_witnesses(m);
   std::sort(e.begin(), e.end());
   e.erase(std::unique(e.begin(), e.end()), e.end());
   m.edges.clear();

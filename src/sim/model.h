@@ -88,6 +88,10 @@ struct Piece {
   /* Per triangle: bit k set when it is the lowest-numbered triangle holding its edge k (corners k, */       \
   /* k+1); bit 3 + k when it is the lowest-numbered one holding corner k. */                                 \
   X(uint8_t, tri_edge_owner, tri_edge_owner)                                                                 \
+  /* Per vertex: a collision triangle that does not hold it but holds a vertex it shares an edge with */     \
+  /* (the nearest such at the start), or kNoWitness: the bound's look-ahead need look no farther */          \
+  /* (sim/bound.h, witness_radius). */                                                                       \
+  X(uint32_t, bound_witness, bound_witness)                                                                  \
   /* Attachments: per vertex the attachment slot or kNoAttachment (null when there are none); per */         \
   /* slot the obstacle triangle (world numbering), barycentric weights, the start position minus the */     \
   /* body point at t = 0 (eased out while seams close), lift, stiffness, damping. */                         \
@@ -116,6 +120,7 @@ struct ModelView {
 };
 
 inline constexpr uint32_t kNoAttachment = 0xFFFFFFFFu;
+inline constexpr uint32_t kNoWitness = 0xFFFFFFFFu;
 
 
 struct ClothModel {
@@ -158,6 +163,7 @@ struct ClothModel {
   std::vector<uint32_t> edges;
   float mean_edge = 0;  // mean length of `edges` at the start (metres): the bound's look-ahead scale
   std::vector<uint8_t> tri_edge_owner;  // see RAYCLOTH_MODEL_ARRAYS
+  std::vector<uint32_t> bound_witness;  // see RAYCLOTH_MODEL_ARRAYS
   // The implicit integrator's colouring (see RAYCLOTH_MODEL_ARRAYS; greedy, in vertex order).
   std::vector<uint32_t> color_offset, color_vertices;
 
