@@ -16,7 +16,9 @@ namespace raycloth {
 inline constexpr float kRunawaySpeed = 1e3f;
 
 // The displacement bound's refresh in a step (sim/bound.h).
-inline constexpr uint32_t kRefreshNone = 0u, kRefreshPartial = 1u, kRefreshFull = 2u;
+// kRefreshPass: a further pass's (sim/bound.h, stage_bound_pass_begin), a full one but for the
+// vertices that stay where they are.
+inline constexpr uint32_t kRefreshNone = 0u, kRefreshPartial = 1u, kRefreshFull = 2u, kRefreshPass = 3u;
 
 // Counters of one step, in the backend's memory (device memory on the GPU). Float maxima are kept
 // as bit patterns so that atomics and reductions give the same value in any thread order. The ones
@@ -26,7 +28,7 @@ inline constexpr uint32_t kRefreshNone = 0u, kRefreshPartial = 1u, kRefreshFull 
   X(hits, 0u)          /* vertices with an entry in the collision buffer */                                  \
   X(wants, 0u)         /* vertices whose proposed position left their ball */                                \
   X(wants_now, 0u)     /* of those, vertices marked for a partial refresh (kFlagRefresh) */                  \
-  X(refresh, 0u)       /* kRefreshNone, kRefreshPartial or kRefreshFull (the pass running) */                \
+  X(refresh, 0u)       /* kRefreshNone, kRefreshPartial, kRefreshFull or kRefreshPass (the one running) */ \
   X(refresh_made, 0u)  /* the step's own refresh (before further passes of the bound) */                     \
   X(starved, 0u)       /* > 0 when a partial refresh could not give a vertex room for its move */            \
   X(escalate, 0u)      /* 1 when a starved partial refresh was redone as a full one */                       \
@@ -208,6 +210,7 @@ inline constexpr uint32_t kFlagRefresh = 16u; // its ball is recomputed by this 
 inline constexpr uint32_t kFlagContact = 32u; // the two-sided contact solve pushed it this step
 inline constexpr uint32_t kFlagNearCloth = 64u; // a cloth triangle not its own is near it (sim/contact.h)
 inline constexpr uint32_t kFlagSqueezed = 128u; // held between a body and cloth a body backs (sim/contact.h)
+inline constexpr uint32_t kFlagPassMove = 256u; // short of its goal in a further pass of the bound (sim/bound.h)
 
 // How far off a body a squeezed vertex is held (a share of the thickness): a vertex between a body
 // and cloth that another body (or another side of the body) pushes from the far side cannot be at
