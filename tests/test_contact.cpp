@@ -456,6 +456,42 @@ TEST(ContactSolveImplicit, ASheetOnARisingBoxRidesAtTheThicknessAtLongSteps) {
   EXPECT_GE(sim.substeps(), 10);
 }
 
+// A vertex resting on cloth at long steps stays where the response stopped it, within the
+// collision band (the thickness, plus the rays' tolerance above it): two sheets dropped onto a box
+// that stands still, at 1/60 s. Once settled (1.5 s), over the next second the upper sheet's
+// vertices over the box's top lie, on the mean, between the thickness and the thickness plus the
+// tolerance above the lower sheet's (2.6 mm: no sink), and no vertex of either over the top moves
+// 0.1 mm in a step (no bounce); every step is clean.
+TEST(ContactSolveImplicit, ASheetRestingOnASheetAtLongStepsStaysInTheBand) {
+  SceneDef s = implicit_at(layered_box_scene(2, {0, 0, 0}, {0, 0, 0}), 1.0 / 60.0);
+  s.time.iterations = 30;
+  s.obstacles[0].motion.reset();
+  Simulator sim(s);
+  ASSERT_EQ(step_checked(sim, 90, 5), "");
+  const uint32_t per = uint32_t(sim.positions().size() / 2);  // 21 x 21 each, the lower sheet first
+  const double t = s.collision.thickness, tol = s.collision.tolerance;
+  std::vector<Vec3> last = sim.positions();
+  for (int k = 0; k < 60; ++k) {
+    ASSERT_EQ(step_checked(sim, 1, 1), "") << "step " << k;
+    const std::vector<Vec3> x = sim.positions();
+    double lower = 0.0, upper = 0.0, moved = 0.0;
+    int nl = 0, nu = 0;
+    for (uint32_t i = 0; i < 2 * per; ++i) {
+      if (std::fabs(x[i].x) > 0.15f || std::fabs(x[i].z) > 0.15f) continue;
+      moved = std::max(moved, double(length(x[i] - last[i])));
+      if (i < per) lower += x[i].y, ++nl;
+      else upper += x[i].y, ++nu;
+    }
+    ASSERT_GT(nl, 50);
+    ASSERT_GT(nu, 50);
+    const double gap = upper / nu - lower / nl;
+    EXPECT_GE(gap, t) << "step " << k;
+    EXPECT_LE(gap, t + tol) << "step " << k;
+    EXPECT_LT(moved, 1e-4) << "step " << k;
+    last = x;
+  }
+}
+
 TEST(ContactSolveImplicit, LayersSqueezedBetweenHandAndHipDoNotLockUp) {
   const SceneDef s = implicit_at(
       load_scene_file(std::string(RAYCLOTH_SOURCE_DIR) + "/tests/scenes/contact/tube_skirt_walk_12.json"), 1.0 / 120.0);
