@@ -443,6 +443,7 @@ TEST(Sewing, ARunResumedAfterItsWeldsGoesOnByteForByte) {
   b.restore_state(in);
   EXPECT_EQ(b.model().mean_edge, a.model().mean_edge);
   EXPECT_EQ(b.model().mass, a.model().mass);
+  EXPECT_EQ(b.model().bound_witness, a.model().bound_witness);  // chosen in the panels' own shapes
   b.step(500);
   ASSERT_EQ(a.steps(), b.steps());
   const std::vector<Vec3>&xa = a.positions(), &xb = b.positions();

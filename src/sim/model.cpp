@@ -41,8 +41,12 @@ namespace {
 
 // Each vertex's witness for the bound (RAYCLOTH_MODEL_ARRAYS: bound_witness): of the collision
 // triangles that do not hold vertex i but hold a vertex it shares a collision edge with, the nearest
-// to it at the start. The bound measures vertex i against it, so i's nearest non-adjacent feature is
-// never farther than it (sim/bound.h, witness_radius).
+// to it in the panels' own shapes (rest_positions; the start positions where a model has none). The
+// bound measures vertex i against it, so i's nearest non-adjacent feature is never farther
+// (sim/bound.h, witness_radius); any such triangle would do, the nearest keeps the look-ahead short.
+// Rest positions, not the present ones: stitches welded during a run weld again from the start
+// positions when the run resumes from a checkpoint (Simulator::restore), and the witnesses must be
+// the same both ways.
 void find_bound_witnesses(ClothModel& m) {
   const uint32_t n = m.num_vertices(), nt = m.num_collision_triangles();
   const std::vector<uint32_t>& tri = m.collision_triangles;
@@ -52,7 +56,7 @@ void find_bound_witnesses(ClothModel& m) {
   std::vector<uint32_t> at(offset.begin(), offset.end() - 1);
   for (uint32_t k = 0; k < tri.size(); ++k) entry[at[tri[k]]++] = k / 3;
   m.bound_witness.assign(n, kNoWitness);
-  const std::vector<Vec3>& x = m.initial_positions;
+  const std::vector<Vec3>& x = m.rest_positions.size() == n ? m.rest_positions : m.initial_positions;
   for (uint32_t i = 0; i < n; ++i) {
     double best = INFINITY;
     for (uint32_t a = offset[i]; a < offset[i + 1]; ++a)
