@@ -193,6 +193,58 @@ TEST(Bound, InvariantHoldsAfterEveryStepOfAFoldingDrop) {
   EXPECT_TRUE(r.clean()) << describe(r);
 }
 
+namespace {
+
+// Two sheets a few millimetres apart, the upper one turned, both crumpled by up to 2 mm.
+ClothModel crumpled_sheets(std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  SceneDef s = test::panel_scene(12, 0.2f, 0.0f);
+  PanelDef upper = s.panels[0];
+  upper.name = "upper";
+  upper.transform.position = {0.03f * u(rng), 0.005f + 0.005f * (u(rng) + 1.0f), 0.03f * u(rng)};
+  upper.transform.rotation = {10.0f * u(rng), 45.0f * u(rng), 10.0f * u(rng)};
+  s.panels.push_back(upper);
+  ClothModel m = build_cloth_model(s);
+  for (Vec3& p : m.initial_positions) p += make_vec3(u(rng), u(rng), u(rng)) * 0.002f;
+  return m;
+}
+
+struct Balls {
+  std::vector<Vec3> centre;
+  std::vector<float> allowance, radius;
+};
+
+// One refresh of kind `mode` (run_bound_refresh, one thread) with the cloth at x, the proposed
+// positions x_next and the vertices' flags; `view` is the model's (its witnesses may be taken out).
+Balls refresh_balls(const ClothModel& m, const ModelView& view, const std::vector<Vec3>& x, const std::vector<Vec3>& x_next,
+                    std::vector<uint32_t> flags, uint32_t mode) {
+  const uint32_t n = m.num_vertices();
+  HostBvh bvh;
+  build_bvh(bvh, x.data(), m.collision_triangles.data(), m.num_triangles());
+  std::vector<Vec3> x_ref(n);
+  std::vector<uint32_t> bound(n), plane_count(n), plane_near(n);
+  std::vector<BoundPlanes> planes(n);
+  std::vector<float> radius(n);
+  uint32_t age = 0;
+  StepCounters counters;
+  counters.refresh = mode;
+  StepView v;
+  v.model = view;
+  std::vector<Vec3> next = x_next;
+  v.x = x.data(), v.x_next = next.data(), v.x_ref = x_ref.data();
+  v.bound = bound.data(), v.bound_radius = radius.data(), v.flags = flags.data();
+  v.plane_count = plane_count.data(), v.plane_near = plane_near.data(), v.planes = planes.data();
+  v.bound_age = &age, v.counters = &counters, v.mean_edge = m.mean_edge;
+  v.cloth_bvh = bvh.view();
+  SerialExec ex;
+  run_bound_refresh(ex, v);
+  Balls b{x_ref, std::vector<float>(n), radius};
+  for (uint32_t i = 0; i < n; ++i) b.allowance[i] = allowance_of(v, i);
+  return b;
+}
+
+}  // namespace
+
 // A full refresh looks no farther around a vertex than its witness (a triangle of its next ring,
 // sim/bound.h: witness_radius), and every ball is what a look-ahead of 1.5 mean edges gives, to the
 // bit: two sheets a few millimetres apart, crumpled, each vertex proposing a move of up to 8 mm (a
@@ -204,48 +256,18 @@ TEST(Bound, LookAheadStopsAtTheWitnessAndChangesNoBall) {
   double sum_with = 0.0, sum_without = 0.0;
   size_t vertices = 0;
   for (int trial = 0; trial < 6; ++trial) {
-    SceneDef s = test::panel_scene(12, 0.2f, 0.0f);
-    PanelDef upper = s.panels[0];
-    upper.name = "upper";
-    upper.transform.position = {0.03f * u(rng), 0.005f + 0.005f * (u(rng) + 1.0f), 0.03f * u(rng)};
-    upper.transform.rotation = {10.0f * u(rng), 45.0f * u(rng), 10.0f * u(rng)};
-    s.panels.push_back(upper);
-    ClothModel m = build_cloth_model(s);
-    const uint32_t n = m.num_vertices(), nt = m.num_triangles();
-    for (uint32_t i = 0; i < n; ++i) m.initial_positions[i] += make_vec3(u(rng), u(rng), u(rng)) * 0.002f;
-    std::vector<Vec3> x = m.initial_positions, x_next(n);
+    const ClothModel m = crumpled_sheets(rng);
+    const uint32_t n = m.num_vertices();
+    const std::vector<Vec3>& x = m.initial_positions;
+    std::vector<Vec3> x_next(n);
     for (uint32_t i = 0; i < n; ++i) x_next[i] = x[i] + make_vec3(u(rng), u(rng), u(rng)) * 0.0046f;
-    HostBvh bvh;
-    build_bvh(bvh, x.data(), m.collision_triangles.data(), nt);
-    struct Balls {
-      std::vector<Vec3> centre;
-      std::vector<float> allowance, radius;
-    };
-    auto refresh = [&](bool witnesses) {
-      std::vector<Vec3> x_ref(n);
-      std::vector<uint32_t> bound(n), flags(n), plane_count(n), plane_near(n);
-      std::vector<BoundPlanes> planes(n);
-      std::vector<float> radius(n);
-      uint32_t age = 0;
-      StepCounters counters;
-      counters.refresh = kRefreshFull;
-      StepView v;
-      v.model = m.view();
-      if (!witnesses) v.model.bound_witness = nullptr;
-      v.x = x.data(), v.x_next = x_next.data(), v.x_ref = x_ref.data();
-      v.bound = bound.data(), v.bound_radius = radius.data(), v.flags = flags.data();
-      v.plane_count = plane_count.data(), v.plane_near = plane_near.data(), v.planes = planes.data();
-      v.bound_age = &age, v.counters = &counters, v.mean_edge = m.mean_edge;
-      v.cloth_bvh = bvh.view();
-      SerialExec ex;
-      run_bound_refresh(ex, v);
-      Balls b{x_ref, std::vector<float>(n), radius};
-      for (uint32_t i = 0; i < n; ++i) b.allowance[i] = allowance_of(v, i);
-      return b;
-    };
-    const Balls with = refresh(true), without = refresh(false);
+    ModelView without_view = m.view();
+    without_view.bound_witness = nullptr;
+    const std::vector<uint32_t> flags(n, 0u);
+    const Balls with = refresh_balls(m, m.view(), x, x_next, flags, kRefreshFull);
+    const Balls without = refresh_balls(m, without_view, x, x_next, flags, kRefreshFull);
     for (uint32_t i = 0; i < n; ++i) {
-      ASSERT_EQ(m.bound_witness[i] == kNoWitness, false) << "vertex " << i << " has no witness";
+      ASSERT_NE(m.bound_witness[i], kNoWitness) << "vertex " << i << " has no witness";
       ASSERT_EQ(with.allowance[i], without.allowance[i]) << "trial " << trial << ", vertex " << i;
       ASSERT_LE(with.radius[i], without.radius[i]);
       sum_with += with.radius[i], sum_without += without.radius[i];
@@ -271,50 +293,18 @@ TEST(Bound, AFurtherPassMeasuresOnlyAroundTheVerticesThatMove) {
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   size_t moving = 0, still = 0;
   for (int trial = 0; trial < 6; ++trial) {
-    SceneDef s = test::panel_scene(12, 0.2f, 0.0f);
-    PanelDef upper = s.panels[0];
-    upper.name = "upper";
-    upper.transform.position = {0.03f * u(rng), 0.005f + 0.005f * (u(rng) + 1.0f), 0.03f * u(rng)};
-    upper.transform.rotation = {10.0f * u(rng), 45.0f * u(rng), 10.0f * u(rng)};
-    s.panels.push_back(upper);
-    ClothModel m = build_cloth_model(s);
-    const uint32_t n = m.num_vertices(), nt = m.num_triangles();
-    for (uint32_t i = 0; i < n; ++i) m.initial_positions[i] += make_vec3(u(rng), u(rng), u(rng)) * 0.002f;
-    std::vector<Vec3> x = m.initial_positions, x_next = x;
+    const ClothModel m = crumpled_sheets(rng);
+    const uint32_t n = m.num_vertices();
+    const std::vector<Vec3>& x = m.initial_positions;
+    std::vector<Vec3> x_next = x;
     std::vector<uint32_t> marks(n, 0u);
     for (uint32_t i = 0; i < n; ++i)
       if (rng() % 10 == 0) {
         x_next[i] = x[i] + make_vec3(u(rng), u(rng), u(rng)) * 0.0046f;
         marks[i] = kFlagPassMove;
       }
-    HostBvh bvh;
-    build_bvh(bvh, x.data(), m.collision_triangles.data(), nt);
-    struct Balls {
-      std::vector<Vec3> centre;
-      std::vector<float> allowance;
-    };
-    auto refresh = [&](uint32_t mode) {
-      std::vector<Vec3> x_ref(n);
-      std::vector<uint32_t> bound(n), flags = marks, plane_count(n), plane_near(n);
-      std::vector<BoundPlanes> planes(n);
-      std::vector<float> radius(n);
-      uint32_t age = 0;
-      StepCounters counters;
-      counters.refresh = mode;
-      StepView v;
-      v.model = m.view();
-      v.x = x.data(), v.x_next = x_next.data(), v.x_ref = x_ref.data();
-      v.bound = bound.data(), v.bound_radius = radius.data(), v.flags = flags.data();
-      v.plane_count = plane_count.data(), v.plane_near = plane_near.data(), v.planes = planes.data();
-      v.bound_age = &age, v.counters = &counters, v.mean_edge = m.mean_edge;
-      v.cloth_bvh = bvh.view();
-      SerialExec ex;
-      run_bound_refresh(ex, v);
-      Balls b{x_ref, std::vector<float>(n)};
-      for (uint32_t i = 0; i < n; ++i) b.allowance[i] = allowance_of(v, i);
-      return b;
-    };
-    const Balls pass = refresh(kRefreshPass), full = refresh(kRefreshFull);
+    const Balls pass = refresh_balls(m, m.view(), x, x_next, marks, kRefreshPass);
+    const Balls full = refresh_balls(m, m.view(), x, x_next, marks, kRefreshFull);
     for (uint32_t i = 0; i < n; ++i) {
       if (marks[i]) {
         ASSERT_EQ(pass.allowance[i], full.allowance[i]) << "trial " << trial << ", vertex " << i;

@@ -89,8 +89,8 @@ struct Piece {
   /* k+1); bit 3 + k when it is the lowest-numbered one holding corner k. */                                 \
   X(uint8_t, tri_edge_owner, tri_edge_owner)                                                                 \
   /* Per vertex: a collision triangle that does not hold it but holds a vertex it shares an edge with */     \
-  /* (the nearest such at the start), or kNoWitness: the bound's look-ahead need look no farther */          \
-  /* (sim/bound.h, witness_radius). */                                                                       \
+  /* (the nearest such in the panels' own shapes), or kNoWitness: the bound's look-ahead need look */     \
+  /* no farther (sim/bound.h, witness_radius). */                                                            \
   X(uint32_t, bound_witness, bound_witness)                                                                  \
   /* Attachments: per vertex the attachment slot or kNoAttachment (null when there are none); per */         \
   /* slot the obstacle triangle (world numbering), barycentric weights, the start position minus the */     \
