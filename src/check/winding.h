@@ -57,7 +57,6 @@ class WindingTree {
   };
   template <class F>
   void visit(const WPoint& p, F&& f) const;
-  uint32_t build(uint32_t begin, uint32_t end, const std::vector<WPoint>& centroid, const std::vector<uint32_t>& id);
 
   std::vector<Node> nodes_;
   std::vector<std::array<WPoint, 3>> tris_;

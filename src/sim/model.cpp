@@ -39,6 +39,20 @@ std::vector<Vec3> welded_positions(const std::vector<uint32_t>& alias, const std
 
 namespace {
 
+// CSR of a flat list of element corners (corner k at vertex corner[k]): offset[i] .. offset[i + 1]
+// index entry, the corners at vertex i in ascending order. Both empty when there are no corners.
+void corners_by_vertex(uint32_t n, const std::vector<uint32_t>& corner, std::vector<uint32_t>& offset,
+                       std::vector<uint32_t>& entry) {
+  offset.clear(), entry.clear();
+  if (corner.empty()) return;
+  offset.assign(n + 1, 0);
+  for (uint32_t v : corner) ++offset[v + 1];
+  for (uint32_t i = 0; i < n; ++i) offset[i + 1] += offset[i];
+  entry.resize(offset[n]);
+  std::vector<uint32_t> at(offset.begin(), offset.end() - 1);
+  for (uint32_t k = 0; k < corner.size(); ++k) entry[at[corner[k]]++] = k;
+}
+
 // Each vertex's witness for the bound (RAYCLOTH_MODEL_ARRAYS: bound_witness): of the collision
 // triangles that do not hold vertex i but hold a vertex it shares a collision edge with, the nearest
 // to it in the panels' own shapes (rest_positions; the start positions where a model has none). The
@@ -48,23 +62,21 @@ namespace {
 // positions when the run resumes from a checkpoint (Simulator::restore), and the witnesses must be
 // the same both ways.
 void find_bound_witnesses(ClothModel& m) {
-  const uint32_t n = m.num_vertices(), nt = m.num_collision_triangles();
+  const uint32_t n = m.num_vertices();
   const std::vector<uint32_t>& tri = m.collision_triangles;
-  std::vector<uint32_t> offset(n + 1, 0), entry(3 * size_t(nt));
-  for (uint32_t v : tri) ++offset[v + 1];
-  for (uint32_t i = 0; i < n; ++i) offset[i + 1] += offset[i];
-  std::vector<uint32_t> at(offset.begin(), offset.end() - 1);
-  for (uint32_t k = 0; k < tri.size(); ++k) entry[at[tri[k]]++] = k / 3;
+  std::vector<uint32_t> offset, entry;  // the corners of tri at each vertex
+  corners_by_vertex(n, tri, offset, entry);
+  if (offset.empty()) offset.assign(n + 1, 0);
   m.bound_witness.assign(n, kNoWitness);
   const std::vector<Vec3>& x = m.rest_positions.size() == n ? m.rest_positions : m.initial_positions;
   for (uint32_t i = 0; i < n; ++i) {
     double best = INFINITY;
     for (uint32_t a = offset[i]; a < offset[i + 1]; ++a)
       for (int k = 0; k < 3; ++k) {
-        const uint32_t j = tri[3 * entry[a] + k];
+        const uint32_t j = tri[3 * (entry[a] / 3) + k];
         if (j == i) continue;
         for (uint32_t b = offset[j]; b < offset[j + 1]; ++b) {
-          const uint32_t t = entry[b];
+          const uint32_t t = entry[b] / 3;
           const uint32_t* c = &tri[3 * size_t(t)];
           if (c[0] == i || c[1] == i || c[2] == i) continue;
           const double d2 = closest_on_triangle(dvec(x[i]), dvec(x[c[0]]), dvec(x[c[1]]), dvec(x[c[2]])).dist2;
@@ -210,24 +222,6 @@ const Piece& ClothModel::piece_of(uint32_t i) const {
     if (i >= p.first_vertex && i < p.first_vertex + p.num_vertices()) return p;
   return pieces.front();
 }
-
-namespace {
-
-// CSR of a flat list of element corners (corner k at vertex corner[k]): offset[i] .. offset[i + 1]
-// index entry, the corners at vertex i in ascending order. Both empty when there are no corners.
-void corners_by_vertex(uint32_t n, const std::vector<uint32_t>& corner, std::vector<uint32_t>& offset,
-                       std::vector<uint32_t>& entry) {
-  offset.clear(), entry.clear();
-  if (corner.empty()) return;
-  offset.assign(n + 1, 0);
-  for (uint32_t v : corner) ++offset[v + 1];
-  for (uint32_t i = 0; i < n; ++i) offset[i + 1] += offset[i];
-  entry.resize(offset[n]);
-  std::vector<uint32_t> at(offset.begin(), offset.end() - 1);
-  for (uint32_t k = 0; k < corner.size(); ++k) entry[at[corner[k]]++] = k;
-}
-
-}  // namespace
 
 // Per-vertex adjacency (CSR) so that forces are gathered, never scattered.
 void build_adjacency(ClothModel& model) {
