@@ -456,38 +456,48 @@ TEST(ContactSolveImplicit, ASheetOnARisingBoxRidesAtTheThicknessAtLongSteps) {
   EXPECT_GE(sim.substeps(), 10);
 }
 
-// A vertex resting on cloth at long steps stays where the response stopped it, within the
-// collision band (the thickness, plus the rays' tolerance above it): two sheets dropped onto a box
-// that stands still, at 1/60 s. Once settled (1.5 s), over the next second the upper sheet's
-// vertices over the box's top lie, on the mean, between the thickness and the thickness plus the
-// tolerance above the lower sheet's (2.6 mm: no sink), and no vertex of either over the top moves
-// 0.1 mm in a step (no bounce); every step is clean.
-TEST(ContactSolveImplicit, ASheetRestingOnASheetAtLongStepsStaysInTheBand) {
+// A vertex resting on cloth at long steps stays at the thickness: two sheets dropped onto a box that
+// stands still, at 1/60 s. Once settled (1.5 s), over the next second every vertex of the upper sheet
+// over the box's top lies within 1 % of the thickness from the lower sheet's surface or farther (its
+// nearest point on the lower sheet's triangles: no sink) and, on the mean, within a tenth of the
+// thickness beyond it (no hover); no vertex of either over the top moves 0.3 mm in a step (no
+// bounce: 0.22 mm at most, the triangles' pull within the last sweep); every step is clean. The
+// cloth inside the implicit solve (stage_implicit_cloth) holds it there; before, the response
+// stopped vertices wherever the band met them: 1.5 mm from the lower sheet at the nearest, 3.0 mm on
+// the mean (and with the sweeps' adaptive start alone, moving up to 0.63 mm a step).
+TEST(ContactSolveImplicit, ASheetRestingOnASheetAtLongStepsStaysAtTheThickness) {
   SceneDef s = implicit_at(layered_box_scene(2, {0, 0, 0}, {0, 0, 0}), 1.0 / 60.0);
   s.time.iterations = 30;
   s.obstacles[0].motion.reset();
   Simulator sim(s);
   ASSERT_EQ(step_checked(sim, 90, 5), "");
+  const ClothModel& m = sim.model();
   const uint32_t per = uint32_t(sim.positions().size() / 2);  // 21 x 21 each, the lower sheet first
-  const double t = s.collision.thickness, tol = s.collision.tolerance;
+  const double t = s.collision.thickness;
+  auto over_top = [](Vec3 p) { return std::fabs(p.x) <= 0.15f && std::fabs(p.z) <= 0.15f; };
   std::vector<Vec3> last = sim.positions();
   for (int k = 0; k < 60; ++k) {
     ASSERT_EQ(step_checked(sim, 1, 1), "") << "step " << k;
     const std::vector<Vec3> x = sim.positions();
-    double lower = 0.0, upper = 0.0, moved = 0.0;
-    int nl = 0, nu = 0;
+    double moved = 0.0, nearest = 1e9, sum = 0.0;
+    int count = 0;
     for (uint32_t i = 0; i < 2 * per; ++i) {
-      if (std::fabs(x[i].x) > 0.15f || std::fabs(x[i].z) > 0.15f) continue;
+      if (!over_top(x[i])) continue;
       moved = std::max(moved, double(length(x[i] - last[i])));
-      if (i < per) lower += x[i].y, ++nl;
-      else upper += x[i].y, ++nu;
+      if (i < per) continue;
+      double d2 = 1e9;
+      for (uint32_t tr = 0; tr < m.num_triangles(); ++tr) {
+        const uint32_t* c = m.collision_triangles.data() + 3 * tr;
+        if (c[0] >= per) continue;  // the upper sheet's own
+        d2 = std::min(d2, closest_on_triangle(dvec(x[i]), dvec(x[c[0]]), dvec(x[c[1]]), dvec(x[c[2]])).dist2);
+      }
+      nearest = std::min(nearest, std::sqrt(d2));
+      sum += std::sqrt(d2), ++count;
     }
-    ASSERT_GT(nl, 50);
-    ASSERT_GT(nu, 50);
-    const double gap = upper / nu - lower / nl;
-    EXPECT_GE(gap, t) << "step " << k;
-    EXPECT_LE(gap, t + tol) << "step " << k;
-    EXPECT_LT(moved, 1e-4) << "step " << k;
+    ASSERT_GT(count, 50);
+    EXPECT_GE(nearest, 0.99 * t) << "step " << k;
+    EXPECT_LE(sum / count, 1.1 * t) << "step " << k;
+    EXPECT_LT(moved, 3e-4) << "step " << k;
     last = x;
   }
 }

@@ -296,6 +296,37 @@ TEST(Implicit, AcceleratedSweepsHangCloseToTheExplicitEquilibrium) {
   EXPECT_LT(worst, 0.02f) << "off by " << worst << " m";
 }
 
+// The sweeps start where each vertex fell in the last step (stage_implicit_begin: the adaptive start
+// of the vertex block descent paper). Cloth hanging at rest from a pinned edge, at 1/60 s and 10
+// sweeps: started at the inertial target, every step began 2.7 mm (dt^2 g) below the balance and
+// the sweeps did not lift it back, so the hanging sheet's edges were stretched 11 times as much as
+// the explicit step's on the mean (1.28 % against 0.116 %); started where it fell, as much (0.116 %).
+TEST(Implicit, SweepsStartWhereTheClothFellSoHangingClothIsNotOverstretched) {
+  SceneDef base = panel_scene(17, 0.6f, 1.0f, 4.0f);
+  PinDef pin;
+  pin.panel = "cloth";
+  pin.edge = "top";
+  base.pins.push_back(pin);
+  base.panels[0].transform.rotation = {-90, 0, 0};
+  Simulator imp(implicit(base, 1.0 / 60.0, 10));
+  imp.step(180);
+  Simulator exp(base);
+  exp.step(int(3.0 / base.time.dt));
+  const ClothModel& m = imp.model();
+  auto mean_strain = [&m](const std::vector<Vec3>& x) {
+    double sum = 0.0;
+    for (uint32_t e = 0; e < m.num_edges(); ++e) {
+      const uint32_t a = m.edges[2 * e], b = m.edges[2 * e + 1];
+      const double rest = length(m.initial_positions[a] - m.initial_positions[b]);
+      sum += std::fabs(length(x[a] - x[b]) / rest - 1.0);
+    }
+    return sum / m.num_edges();
+  };
+  const double implicit_strain = mean_strain(imp.positions()), explicit_strain = mean_strain(exp.positions());
+  EXPECT_GT(explicit_strain, 1e-4);
+  EXPECT_LT(implicit_strain, 1.2 * explicit_strain);
+}
+
 TEST(ImplicitErrors, SceneFields) {
   auto parse = [](const std::string& time) {
     return parse_scene(R"({"time": )" + time + R"(, "materials": [{"name": "m"}],

@@ -153,8 +153,9 @@ class CpuBackend final : public Backend {
     }
     collider_->update_cloth(x().data());
     // The cloth's proximity tree at x: where a body moves, the contact solve looks for pairs in it
-    // every step; otherwise only the bound's refreshes need it (refit_cloth).
-    if (obstacles_.any_moving) refit_cloth_tree();
+    // every step, and so does the implicit integrator's solve (stage_implicit_cloth); otherwise only
+    // the bound's refreshes need it (refit_cloth).
+    if (tree_every_step()) refit_cloth_tree();
     st_.counters[0] = StepCounters();
     StepView s = view(step);
     add_time(Stage::Update, t);
@@ -220,9 +221,9 @@ class CpuBackend final : public Backend {
 
   // The step's view of cloth_bvh_ was taken in begin(); a rebuild keeps the same array sizes (the
   // triangle count never changes), so its pointers stay valid. Where a body moves the tree was
-  // refit at x in begin(), for the contact solve.
+  // refit at x in begin(), for the contact solve (and with the implicit integrator, for its solve).
   void refit_cloth(const StepCounters* c) {
-    if (c->refresh == 0u || obstacles_.any_moving) return;
+    if (c->refresh == 0u || tree_every_step()) return;
     const auto t = Clock::now();
     refit_cloth_tree();
     add_time(Stage::Update, t);
@@ -234,6 +235,10 @@ class CpuBackend final : public Backend {
     const auto t = Clock::now();
     refit_bvh(cloth_bvh_, x, model_.collision_triangles.data());
     add_time(Stage::Update, t);
+  }
+
+  bool tree_every_step() const {
+    return obstacles_.any_moving || (scene_.time.integrator == Integrator::Implicit && scene_.collision.cloth_cloth);
   }
 
   void refit_cloth_tree() {

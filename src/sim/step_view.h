@@ -125,6 +125,8 @@ inline void add_step(StepResult& r, const StepCounters& c) {
   X(BoundPlanes, planes, kPerVertex, BoundPlanes(), true)                                                     \
   X(uint32_t, bound_age, kOne, 0u, true)                                                                      \
   X(uint32_t, flags, kPerVertex, 0u, true)             /* kFlag* of this step */                               \
+  /* The implicit integrator's (sim/integrate/vbd.h): each vertex's velocity at the last step's start. */  \
+  X(Vec3, v_before, kPerVertex, Vec3{}, true)                                                                 \
   /* The bound's further passes: the step's goal and where the last pass left each vertex. */                 \
   X(Vec3, x_goal, kPerVertex, Vec3{}, false)                                                                  \
   X(Vec3, v_goal, kPerVertex, Vec3{}, false)                                                                  \
