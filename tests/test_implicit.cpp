@@ -277,20 +277,32 @@ TEST(Implicit, StaticFrictionHoldsASheetOnASlopeAtLongSteps) {
   EXPECT_LT(drift, 0.02f) << "slid " << drift << " m";
 }
 
+// A sheet hanging from its pinned top edge for 3 s: at 1/60 s with 10 sweeps (imp) and with the
+// explicit step (exp).
+struct HangingSheet {
+  static SceneDef scene() {
+    SceneDef base = panel_scene(17, 0.6f, 1.0f, 4.0f);
+    PinDef pin;
+    pin.panel = "cloth";
+    pin.edge = "top";
+    base.pins.push_back(pin);
+    base.panels[0].transform.rotation = {-90, 0, 0};
+    return base;
+  }
+  Simulator imp{implicit(scene(), 1.0 / 60.0, 10)}, exp{scene()};
+  HangingSheet() {
+    imp.step(180);
+    exp.step(int(3.0 / scene().time.dt));
+  }
+};
+
 // Chebyshev acceleration of the sweeps: a sheet hanging from its top edge at 1/60 s with 10 sweeps
 // comes, after 3 s, within 2 cm of the equilibrium the explicit step finds (without the acceleration:
 // 3.3 cm, the sheet stretched by what the sweeps left unresolved).
 TEST(Implicit, AcceleratedSweepsHangCloseToTheExplicitEquilibrium) {
-  SceneDef base = panel_scene(17, 0.6f, 1.0f, 4.0f);
-  PinDef pin;
-  pin.panel = "cloth";
-  pin.edge = "top";
-  base.pins.push_back(pin);
-  base.panels[0].transform.rotation = {-90, 0, 0};
-  Simulator imp(implicit(base, 1.0 / 60.0, 10));
-  imp.step(180);
-  Simulator exp(base);
-  exp.step(int(3.0 / base.time.dt));
+  HangingSheet hang;
+  Simulator& imp = hang.imp;
+  Simulator& exp = hang.exp;
   float worst = 0;
   for (size_t i = 0; i < imp.positions().size(); ++i) worst = std::max(worst, length(imp.positions()[i] - exp.positions()[i]));
   EXPECT_LT(worst, 0.02f) << "off by " << worst << " m";
@@ -302,16 +314,9 @@ TEST(Implicit, AcceleratedSweepsHangCloseToTheExplicitEquilibrium) {
 // the sweeps did not lift it back, so the hanging sheet's edges were stretched 11 times as much as
 // the explicit step's on the mean (1.28 % against 0.116 %); started where it fell, as much (0.116 %).
 TEST(Implicit, SweepsStartWhereTheClothFellSoHangingClothIsNotOverstretched) {
-  SceneDef base = panel_scene(17, 0.6f, 1.0f, 4.0f);
-  PinDef pin;
-  pin.panel = "cloth";
-  pin.edge = "top";
-  base.pins.push_back(pin);
-  base.panels[0].transform.rotation = {-90, 0, 0};
-  Simulator imp(implicit(base, 1.0 / 60.0, 10));
-  imp.step(180);
-  Simulator exp(base);
-  exp.step(int(3.0 / base.time.dt));
+  HangingSheet hang;
+  Simulator& imp = hang.imp;
+  Simulator& exp = hang.exp;
   const ClothModel& m = imp.model();
   auto mean_strain = [&m](const std::vector<Vec3>& x) {
     double sum = 0.0;
