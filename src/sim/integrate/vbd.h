@@ -1,8 +1,8 @@
 // The implicit integrator: implicit Euler by Vertex Block Descent, with contact inside the solve
 // (the bodies: one plane per vertex; the cloth: a plane per nearby cloth triangle), the sweeps
-// started where each vertex fell in the last step, and Chebyshev acceleration of the sweeps. It owns its scratch
-// (VbdScratch) and its settings (sweeps, tolerance); sim/step.h calls integrate() and
-// after_response().
+// started where each vertex fell in the last step, and Chebyshev acceleration of the sweeps. It
+// owns its scratch (VbdScratch) and its settings (sweeps, tolerance); sim/step.h calls integrate()
+// and after_response().
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -135,7 +135,8 @@ struct VbdView {
   float* plane_offset = nullptr;   // and the plane's offset (n . p >= offset)
   // The cloth each vertex is kept from inside the solve (stage_implicit_cloth): kSolveClothPairs
   // slots a vertex, each a cloth triangle (kNoSolvePair: none; kSolvePairFlip: the vertex lies on
-  // the side its normal turns away from) and the barycentric weights of its point nearest the vertex.
+  // the side its normal turns away from; kSolvePairFixed: the pair's direction is cloth_n's, not
+  // the normal's), the barycentric weights of its point nearest the vertex, and that direction.
   uint32_t* cloth_tri = nullptr;
   Vec3* cloth_w = nullptr;
   Vec3* cloth_n = nullptr;
