@@ -195,16 +195,23 @@ TEST(Bound, InvariantHoldsAfterEveryStepOfAFoldingDrop) {
 
 namespace {
 
+// Two n x n sheets of side `size`, the upper one shifted by up to `spread` across, lifted by `lift`
+// plus up to twice `rise`, and turned at random.
+SceneDef turned_sheets(std::mt19937& rng, int n, float size, float spread, float lift, float rise) {
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  SceneDef s = test::panel_scene(n, size, 0.0f);
+  PanelDef upper = s.panels[0];
+  upper.name = "upper";
+  upper.transform.position = {spread * u(rng), lift + rise * (u(rng) + 1.0f), spread * u(rng)};
+  upper.transform.rotation = {10.0f * u(rng), 45.0f * u(rng), 10.0f * u(rng)};
+  s.panels.push_back(upper);
+  return s;
+}
+
 // Two sheets a few millimetres apart, the upper one turned, both crumpled by up to 2 mm.
 ClothModel crumpled_sheets(std::mt19937& rng) {
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  SceneDef s = test::panel_scene(12, 0.2f, 0.0f);
-  PanelDef upper = s.panels[0];
-  upper.name = "upper";
-  upper.transform.position = {0.03f * u(rng), 0.005f + 0.005f * (u(rng) + 1.0f), 0.03f * u(rng)};
-  upper.transform.rotation = {10.0f * u(rng), 45.0f * u(rng), 10.0f * u(rng)};
-  s.panels.push_back(upper);
-  ClothModel m = build_cloth_model(s);
+  ClothModel m = build_cloth_model(turned_sheets(rng, 12, 0.2f, 0.03f, 0.005f, 0.005f));
   for (Vec3& p : m.initial_positions) p += make_vec3(u(rng), u(rng), u(rng)) * 0.002f;
   return m;
 }
@@ -331,13 +338,7 @@ TEST(Bound, InvariantHoldsAfterRandomPartialRefreshes) {
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   size_t partial = 0, escalated = 0, pairs = 0;
   for (int trial = 0; trial < 40; ++trial) {
-    SceneDef s = test::panel_scene(6, 0.1f, 0.0f);
-    PanelDef upper = s.panels[0];
-    upper.name = "upper";
-    upper.transform.position = {0.02f * u(rng), 0.004f + 0.01f * (u(rng) + 1.0f), 0.02f * u(rng)};
-    upper.transform.rotation = {10.0f * u(rng), 45.0f * u(rng), 10.0f * u(rng)};
-    s.panels.push_back(upper);
-    const ClothModel m = build_cloth_model(s);
+    const ClothModel m = build_cloth_model(turned_sheets(rng, 6, 0.1f, 0.02f, 0.004f, 0.01f));
     const uint32_t n = m.num_vertices(), nt = m.num_triangles();
     std::vector<Vec3> x = m.initial_positions, x_next(n), x_ref(n);
     std::vector<uint32_t> bound(n), flags(n), plane_count(n), plane_near(n);

@@ -270,4 +270,16 @@ RC_HD uint32_t bits_from_float(float f) {
   return b;
 }
 
+// Keeps the `cap` nearest candidates (squared distance d2, key for ties) in ascending order
+// (the contact solve's pair searches and the implicit solve's cloth search).
+template <class T>
+RC_HD void keep_nearest(uint32_t cap, uint32_t& found, double* d2s, uint32_t* keys, T* items, double d2, uint32_t key,
+                        const T& item) {
+  if (found == cap && !(d2 < d2s[found - 1] || (d2 == d2s[found - 1] && key < keys[found - 1]))) return;
+  uint32_t k = found < cap ? found++ : found - 1;
+  for (; k > 0 && (d2 < d2s[k - 1] || (d2 == d2s[k - 1] && key < keys[k - 1])); --k)
+    d2s[k] = d2s[k - 1], keys[k] = keys[k - 1], items[k] = items[k - 1];
+  d2s[k] = d2, keys[k] = key, items[k] = item;
+}
+
 }  // namespace raycloth

@@ -207,9 +207,13 @@ RC_HD void stage_implicit_cloth(const StepView& s, const VbdView& v, uint32_t i)
   const float parts = float(s.ctx.substeps);
   const float reach = s.coll.thickness + s.coll.tolerance + 2.0f * parts * length(inertial_target(s, i) - x);
   const DVec3 dx = dvec(x);
-  uint32_t found = 0, tri[kSolveClothPairs] = {};
+  struct Pair {
+    uint32_t code;
+    Vec3 w, dir;
+  };
+  uint32_t found = 0, keys[kSolveClothPairs] = {};
   double d2s[kSolveClothPairs] = {};
-  Vec3 w[kSolveClothPairs] = {}, dir[kSolveClothPairs] = {};
+  Pair items[kSolveClothPairs] = {};
   Aabb query = aabb_grow(point_box(x), reach);
   const double limit2 = double(reach) * reach, eps = 1e-6;
   bvh_for_each_overlap(s.cloth_bvh, query, [&](uint32_t t) {
@@ -225,18 +229,16 @@ RC_HD void stage_implicit_cloth(const StepView& s, const VbdView& v, uint32_t i)
     if (inside && side == 0.0) return;
     const double len = sqrt(ddot(off, off));
     if (!inside && !(len > 1e-9)) return;
-    if (found == kSolveClothPairs && !(q.dist2 < d2s[found - 1])) return;
-    uint32_t k = found < kSolveClothPairs ? found++ : found - 1;
-    for (; k > 0 && q.dist2 < d2s[k - 1]; --k) d2s[k] = d2s[k - 1], tri[k] = tri[k - 1], w[k] = w[k - 1], dir[k] = dir[k - 1];
-    d2s[k] = q.dist2;
-    tri[k] = t | (inside ? (side < 0.0 ? kSolvePairFlip : 0u) : kSolvePairFixed);
-    w[k] = make_vec3(float(q.wa), float(q.wb), float(q.wc));
-    dir[k] = inside ? make_vec3(0, 0, 0) : make_vec3(float(off.x / len), float(off.y / len), float(off.z / len));
+    Pair p;
+    p.code = t | (inside ? (side < 0.0 ? kSolvePairFlip : 0u) : kSolvePairFixed);
+    p.w = make_vec3(float(q.wa), float(q.wb), float(q.wc));
+    p.dir = inside ? make_vec3(0, 0, 0) : make_vec3(float(off.x / len), float(off.y / len), float(off.z / len));
+    keep_nearest(kSolveClothPairs, found, d2s, keys, items, q.dist2, t, p);
   });
   for (uint32_t k = 0; k < found; ++k) {
-    slot[k] = tri[k];
-    v.cloth_w[size_t(i) * kSolveClothPairs + k] = w[k];
-    v.cloth_n[size_t(i) * kSolveClothPairs + k] = dir[k];
+    slot[k] = items[k].code;
+    v.cloth_w[size_t(i) * kSolveClothPairs + k] = items[k].w;
+    v.cloth_n[size_t(i) * kSolveClothPairs + k] = items[k].dir;
   }
 }
 
