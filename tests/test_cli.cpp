@@ -244,3 +244,50 @@ TEST(Cli, UnconvergedImplicitSolvesAreCountedAgainstSolvesWhereABodyMoves) {
                            std::to_string(substeps) + " substeps)";
   EXPECT_NE(r.out.find(want), std::string::npos) << r.out;
 }
+
+// Trying another integrator or step on a scene without editing its file: --integrator, --dt and
+// --iterations override the scene's time settings (run.json says what ran), and are checked as the
+// file's would be, before anything is written.
+TEST(Cli, TimeOptionsOverrideTheScenesAndAreCheckedBeforeAnythingIsWritten) {
+  const fs::path dir = fresh_dir("time_options");
+  fs::create_directories(dir);
+  std::ofstream(dir / "sheet.json") << R"({
+    "time": {"dt": 0.0004, "duration": 0.05, "fps": 30},
+    "materials": [{"name": "c", "density": 0.2, "stretch": 200, "shear": 40, "bend": 4, "damping": 1.0}],
+    "panels": [{"name": "p", "material": "c", "size": [0.3, 0.3], "resolution": [8, 8], "position": [0, 0.3, 0]}],
+    "pins": [{"panel": "p", "edge": "top"}]})";
+  const std::string scene = (dir / "sheet.json").string(), out = (dir / "out").string();
+  Result r = run_cli("run " + scene + " --quiet --integrator implicit --dt 0.01 --iterations 7 --out " + out, dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  {
+    std::ifstream in(dir / "out" / "run.json");
+    const nlohmann::json run = nlohmann::json::parse(in);
+    EXPECT_EQ(run["integrator"]["name"], "implicit");
+    EXPECT_EQ(run["integrator"]["iterations"], 7);
+    EXPECT_EQ(run["dt"], 0.01);
+    EXPECT_EQ(run["steps"], 5);
+  }
+  fs::remove_all(dir / "out");
+  const std::pair<std::string, std::string> bad[] = {
+      {"--dt 0", "--dt: must be positive (got 0)"},
+      {"--dt -0.001", "--dt: must be positive (got -0.001)"},
+      {"--iterations 5", "--iterations: applies to the implicit integrator only (add --integrator implicit)"},
+      {"--integrator implicit --iterations 0", "--iterations: must be between 1 and 1000 (got 0)"},
+      {"--integrator implicit --iterations 1001", "--iterations: must be between 1 and 1000 (got 1001)"}};
+  for (const auto& [args, why] : bad) {
+    r = run_cli("run " + scene + " " + args + " --out " + out, dir);
+    EXPECT_EQ(r.code, 2) << args;
+    EXPECT_EQ(r.err, "raycloth: error: command line: " + why + "\n") << args;
+    EXPECT_FALSE(fs::exists(dir / "out")) << args;
+  }
+  // A step the explicit step cannot take is refused by the same check as the file's, naming the
+  // option.
+  r = run_cli("run " + scene + " --dt 0.01 --out " + out, dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err.rfind("raycloth: error: command line: --dt: time step 0.01 s is not below the natural period T0", 0), 0u)
+      << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+  r = run_cli("run " + scene + " --integrator rk4 --out " + out, dir);
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find("--integrator: rk4 not in {explicit,implicit}"), std::string::npos) << r.err;
+}

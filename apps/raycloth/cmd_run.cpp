@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 #include <tbb/global_control.h>
 
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -27,6 +28,10 @@ struct RunArgs {
   std::string device = "cpu";
   std::vector<std::string> formats;
   double duration = 0;
+  // Overrides of the scene's time settings (empty: the scene's own).
+  std::string integrator;
+  std::optional<double> dt;
+  std::optional<int> iterations;
   int threads = 0;
   bool quiet = false;
   bool allow_unstable = false;
@@ -44,6 +49,9 @@ std::string invocation_json(const RunArgs& a) {
   nlohmann::json j = {{"scene", a.scene.empty() ? std::string() : std::filesystem::absolute(a.scene).string()},
                       {"device", a.device},
                       {"duration", a.duration},
+                      {"integrator", a.integrator},
+                      {"dt", a.dt ? nlohmann::json(*a.dt) : nlohmann::json(nullptr)},
+                      {"iterations", a.iterations ? nlohmann::json(*a.iterations) : nlohmann::json(nullptr)},
                       {"allow_unstable_dt", a.allow_unstable},
                       {"render", a.render},
                       {"video", a.video},
@@ -69,6 +77,10 @@ RunArgs args_from_checkpoint(const std::string& dir) {
     a.scene = j.at("scene").get<std::string>();
     a.device = j.at("device").get<std::string>();
     a.duration = j.at("duration").get<double>();
+    // Checkpoints written before these options were added lack them.
+    a.integrator = j.value("integrator", std::string());
+    if (j.contains("dt") && !j["dt"].is_null()) a.dt = j["dt"].get<double>();
+    if (j.contains("iterations") && !j["iterations"].is_null()) a.iterations = j["iterations"].get<int>();
     a.allow_unstable = j.at("allow_unstable_dt").get<bool>();
     a.render = j.at("render").get<bool>();
     a.video = j.at("video").get<bool>();
@@ -106,11 +118,32 @@ std::string check_line(const RunCheck& c) {
                      c.first_problem, pinch_note(c));
 }
 
+// The scene's time settings as --integrator, --dt and --iterations change them (trying another
+// integrator or step on a scene without editing its file), checked as the file's would be.
+void apply_time_options(const RunArgs& args, TimeDef& t) {
+  if (!args.integrator.empty()) t.integrator = args.integrator == "implicit" ? Integrator::Implicit : Integrator::Explicit;
+  if (args.dt) {
+    if (!(*args.dt > 0 && std::isfinite(*args.dt)))
+      throw InputError("command line", "--dt", fmt::format("must be positive (got {:g})", *args.dt));
+    t.dt = *args.dt;
+    t.dt_given = true;
+    t.max_dt = 0;
+  }
+  if (args.iterations) {
+    if (t.integrator != Integrator::Implicit)
+      throw InputError("command line", "--iterations", "applies to the implicit integrator only (add --integrator implicit)");
+    if (*args.iterations < 1 || *args.iterations > 1000)
+      throw InputError("command line", "--iterations", fmt::format("must be between 1 and 1000 (got {})", *args.iterations));
+    t.iterations = *args.iterations;
+  }
+}
+
 // `raycloth run` (and `raycloth resume`, with the arguments kept in the checkpoint).
 int run_command(const RunArgs& args) {
   std::optional<tbb::global_control> threads;
   if (args.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, size_t(args.threads));
   SceneDef scene = args.scene.empty() ? default_scene() : load_scene_file(args.scene);
+  apply_time_options(args, scene.time);
   apply_camera_options(args.camera, scene.output);
   const bool video = args.video || scene.output.video;
   const bool render = args.render || scene.output.render || video;
@@ -137,7 +170,15 @@ int run_command(const RunArgs& args) {
   }
   if (render) opt.sinks.push_back(std::make_shared<ImageFrames>(scene.output.camera));
   if (!args.quiet) spdlog::info("scene '{}' on {}, output in {}", scene.name, args.device, args.out);
-  const RunReport r = run_scene(scene, opt);
+  // A step the mesh cannot take came from --dt where it was given: the message names the option.
+  const RunReport r = [&] {
+    try {
+      return run_scene(scene, opt);
+    } catch (const InputError& e) {
+      if (args.dt && e.field() == "/time/dt") throw InputError("command line", "--dt", e.reason());
+      throw;
+    }
+  }();
   if (!args.quiet) {
     std::cout << fmt::format(
         "{}: {} steps, {:.3f} s simulated in {:.2f} s: {:.0f} steps/s on {}\n"
@@ -188,6 +229,10 @@ Action add_run_command(CLI::App& app) {
   run->add_option("--format", args->formats, "Mesh formats, comma-separated: obj, ply, pc2, glb (overrides the scene; default obj)")
       ->delimiter(',');
   run->add_option("--duration", args->duration, "Simulated seconds (overrides the scene)");
+  run->add_option("--integrator", args->integrator, "explicit or implicit (overrides the scene's time.integrator)")
+      ->check(CLI::IsMember({"explicit", "implicit"}));
+  run->add_option("--dt", args->dt, "Seconds per step (overrides the scene's time.dt)");
+  run->add_option("--iterations", args->iterations, "Sweeps per step of the implicit integrator (overrides time.iterations)");
   run->add_option("--threads", args->threads, "Worker threads (default: all cores)");
   run->add_flag("-q,--quiet", args->quiet, "No progress output");
   run->add_flag("--allow-unstable-dt", args->allow_unstable, "Run even when dt >= T0 = pi sqrt(m/K)");
