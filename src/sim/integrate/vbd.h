@@ -248,11 +248,12 @@ RC_HD Vec3 keep_off_cloth(const StepView& s, const VbdView& v, uint32_t i, Vec3 
   for (uint32_t k = 0; k < kSolveClothPairs; ++k) {
     const uint32_t code = v.cloth_tri[size_t(i) * kSolveClothPairs + k];
     if (code == kNoSolvePair) break;
-    const uint32_t* c = s.model.triangles + 3 * (code & ~(kSolvePairFlip | kSolvePairFixed));
+    const uint32_t t = code & ~(kSolvePairFlip | kSolvePairFixed);
+    const uint32_t* c = s.model.triangles + 3 * t;
     const Vec3 w = v.cloth_w[size_t(i) * kSolveClothPairs + k];
     const Vec3 a = v.x_sweep[c[0]], b = v.x_sweep[c[1]], d = v.x_sweep[c[2]];
     Vec3 n = v.cloth_n[size_t(i) * kSolveClothPairs + k];
-    if (!(code & kSolvePairFixed)) n = normalize_or_zero(cross(b - a, d - a));
+    if (!(code & kSolvePairFixed)) n = triangle_normal(v.x_sweep, s.model.triangles, t);
     if (code & kSolvePairFlip) n = -n;
     if (n.x == 0.0f && n.y == 0.0f && n.z == 0.0f) continue;
     const Vec3 q = a * w.x + b * w.y + d * w.z;
