@@ -43,6 +43,8 @@ inline constexpr uint32_t kRefreshNone = 0u, kRefreshPartial = 1u, kRefreshFull 
   X(residual, 0u)      /* float bits: the implicit integrator's largest step in its last sweep (metres) */   \
   X(obstacle_move, 0u) /* float bits: the largest move of an obstacle vertex in this step (obstacle_reach) */ \
   X(clear_drift, 0u)   /* float bits: the largest move of a vertex since its cloth clearance was measured */   \
+  X(swept_move, 0u)    /* float bits: the largest |x' - x| of a vertex when the swept bound begins */         \
+  X(swept_failing, 0u) /* 1 when the swept bound's last round found a pair that would pass its floor */       \
   X(bad_vertex, 0xFFFFFFFFu) /* smallest vertex that blew up */
 
 struct StepCounters {
@@ -131,6 +133,8 @@ inline void add_step(StepResult& r, const StepCounters& c) {
   X(Vec3, x_goal, kPerVertex, Vec3{}, false)                                                                  \
   X(Vec3, v_goal, kPerVertex, Vec3{}, false)                                                                  \
   X(Vec3, x_mid, kPerVertex, Vec3{}, false)                                                                   \
+  /* The swept bound (sim/swept_bound.h): the share of its move each vertex may go (float bits). */          \
+  X(uint32_t, swept_share, kPerVertex, 0x3F800000u, false)                                                    \
   /* Two-sided contact (sim/contact.h): clearance from the obstacles (stage_obstacles), how far the */        \
   /* solve moved each vertex, the pair slots (contact_slots: per vertex, then per edge) and the list of */    \
   /* those in use (counters->contact_pairs of them), the fixed-point sums (and counts) of a round. */         \
@@ -189,6 +193,9 @@ struct StepView {
   // seams are sewn. Static scenes keep the paper's step and its bound (the default scene's frames
   // byte for byte), as for the contact solve.
   bool bound_planes = false;
+  // The step's bound is the swept one (sim/swept_bound.h): a vertex its ball cannot hold has its
+  // pairs checked over the step instead of being held back (sim/step.h, run_bound).
+  bool swept = false;
   uint32_t num_obstacle_vertices = 0;
 };
 
@@ -213,6 +220,8 @@ inline constexpr uint32_t kFlagContact = 32u; // the two-sided contact solve pus
 inline constexpr uint32_t kFlagNearCloth = 64u; // a cloth triangle not its own is near it (sim/contact.h)
 inline constexpr uint32_t kFlagSqueezed = 128u; // held between a body and cloth a body backs (sim/contact.h)
 inline constexpr uint32_t kFlagPassMove = 256u; // short of its goal in a further pass of the bound (sim/bound.h)
+inline constexpr uint32_t kFlagSweptLess = 512u; // the swept bound's last round shortened its move (sim/swept_bound.h)
+inline constexpr uint32_t kFlagSweptOut = 1024u; // its ball does not hold its move: the swept bound checks its pairs
 
 // How far off a body a squeezed vertex is held (a share of the thickness): a vertex between a body
 // and cloth that another body (or another side of the body) pushes from the far side cannot be at

@@ -298,10 +298,15 @@ RC_HD float chebyshev_omega(uint32_t sweep) {
 
 RC_HD void stage_sweep_save(const StepView& s, const VbdView& v, uint32_t i) { v.x_sweep[i] = s.x_next[i]; }
 
-// omega: chebyshev_omega(sweep), computed once per sweep by the caller (1 for the first).
+// omega: chebyshev_omega(sweep), computed once per sweep by the caller (1 for the first). Where a
+// body moves (the swept bound's steps, sim/swept_bound.h), a vertex kept off cloth inside the solve
+// (keep_off_cloth) is not pushed on: its projection onto a triangle that its corners' own steps move
+// is not a smooth iteration, and pushed on it grew without end (the peers' drape with the swept bound
+// and no balls: a last sweep moving a vertex 2.6 m); the balls' clamp had hidden that.
 RC_HD void stage_sweep_accelerate(const StepView& s, const VbdView& v, uint32_t i, float omega) {
   if (s.model.inv_mass[i] == 0.0f || !is_representative(s.model, i)) return;
-  if (omega != 1.0f) s.x_next[i] = v.x_sweep_prev[i] + (s.x_next[i] - v.x_sweep_prev[i]) * omega;
+  const bool kept_off_cloth = s.bodies_move && v.cloth_tri[size_t(i) * kSolveClothPairs] != kNoSolvePair;
+  if (omega != 1.0f && !kept_off_cloth) s.x_next[i] = v.x_sweep_prev[i] + (s.x_next[i] - v.x_sweep_prev[i]) * omega;
   v.x_sweep_prev[i] = v.x_sweep[i];
 }
 
