@@ -7,11 +7,26 @@
 #include <string>
 
 #include "sim/model_check.h"
+#include "sim/stage_time.h"
 #include "raycloth/error.h"
 #include "raycloth/scene.h"
 #include "raycloth/simulator.h"
 
 namespace raycloth::test {
+
+// The executor of sim/step.h in one thread, for running a stage sequence on its own (the bound's
+// refresh, the swept bound): counters are read where they are.
+struct SerialExec {
+  template <class F>
+  void for_each(Stage, uint32_t n, F&& f) {
+    for (uint32_t i = 0; i < n; ++i) f(i);
+  }
+  template <class F, class T>
+  void sum(Stage, uint32_t n, F&& f, T* slot) {
+    for (uint32_t i = 0; i < n; ++i) *slot += f(i);
+  }
+  uint32_t peek(const uint32_t* slot, uint32_t) const { return *slot; }
+};
 
 // f() throws InputError with exactly `message`.
 inline void expect_input_error(const std::function<void()>& f, const std::string& message) {

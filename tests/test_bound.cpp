@@ -139,17 +139,7 @@ Invariant check_invariant(const ClothModel& m, const std::vector<Vec3>& c, const
   return out;
 }
 
-// The executor of sim/step.h in one thread, for running the bound's refresh on its own.
-struct SerialExec {
-  template <class F>
-  void for_each(Stage, uint32_t n, F&& f) {
-    for (uint32_t i = 0; i < n; ++i) f(i);
-  }
-  template <class F, class T>
-  void sum(Stage, uint32_t n, F&& f, T* slot) {
-    for (uint32_t i = 0; i < n; ++i) *slot += f(i);
-  }
-};
+using test::SerialExec;
 
 // Steps the scene and checks the invariant after every step; returns the first failure.
 std::string step_with_invariant(Simulator& sim, int steps, size_t* pairs) {

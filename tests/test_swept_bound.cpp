@@ -27,17 +27,7 @@ namespace {
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 K::Point_3 pt(DVec3 v) { return K::Point_3(v.x, v.y, v.z); }
 
-struct SerialExec {
-  template <class F>
-  void for_each(Stage, uint32_t n, F&& f) {
-    for (uint32_t i = 0; i < n; ++i) f(i);
-  }
-  template <class F, class T>
-  void sum(Stage, uint32_t n, F&& f, T* slot) {
-    for (uint32_t i = 0; i < n; ++i) *slot += f(i);
-  }
-  uint32_t peek(const uint32_t* slot, uint32_t) const { return *slot; }
-};
+using test::SerialExec;
 
 // Two 12 x 12 sheets of 0.2 m, the upper `lift` to twice that above the lower, turned about the
 // vertical and tilted by up to 2 degrees, both crumpled by up to 1 mm: they do not meet.
