@@ -18,6 +18,7 @@ namespace raycloth {
   X(contact_rounds, "contact_solve_rounds", "contact")  /* rounds of the position solve that found a pair to act on */ \
   X(bound_passes, "bound_passes", "contact")      /* further passes of the bound (run_bound_passes) */       \
   X(overlap_exits, "pushed_out_of_overlaps", "contact") /* pushes that landed inside another part of a body and went out of every part instead */ \
+  X(swept_rounds, "swept_bound_rounds", "contact") /* rounds of the swept bound after one that found a failing pair */ \
   X(swept_stops, "swept_bound_stops", "contact") /* steps whose swept bound did not settle: every vertex stayed where it was */ \
   X(unconverged, "unconverged_steps", "integrator") /* 1 when the implicit solve's last sweep exceeded the tolerance */
 

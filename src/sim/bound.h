@@ -26,6 +26,11 @@ inline constexpr float kBoundMinRadius = 0.05f;
 inline constexpr float kBoundMaxRadius = 1.5f;
 inline constexpr uint32_t kBoundMaxAge = 8;
 inline constexpr uint32_t kBoundCrowd = 16;
+// With the swept bound (StepView::swept, sim/swept_bound.h) a vertex its ball cannot hold is checked
+// over the step, not held back: the balls are refreshed in full only when a quarter of the vertices
+// want more room or the last refresh is kSweptMaxAge steps old, and never in part.
+inline constexpr uint32_t kSweptCrowd = 4;
+inline constexpr uint32_t kSweptMaxAge = 32;
 inline constexpr float kBoundNear = 0.25f;
 
 // Planes instead of balls. A ball of kBoundFactor of a pair's distance, less the slack, lets two
@@ -153,9 +158,10 @@ RC_HD uint32_t stage_wants_refresh_now(const StepView& s, uint32_t i) {
 RC_HD void stage_decide_refresh(const StepView& s) {
   StepCounters* c = s.counters;
   const uint32_t age = *s.bound_age + 1u;
-  if (c->wants * kBoundCrowd > s.model.num_vertices || (c->wants > 0u && age >= kBoundMaxAge))
+  const uint32_t crowd = s.swept ? kSweptCrowd : kBoundCrowd, max_age = s.swept ? kSweptMaxAge : kBoundMaxAge;
+  if (c->wants * crowd > s.model.num_vertices || (c->wants > 0u && age >= max_age))
     c->refresh = kRefreshFull;
-  else if (c->wants_now > 0u)
+  else if (c->wants_now > 0u && !s.swept)
     c->refresh = kRefreshPartial;
   else
     c->refresh = kRefreshNone;

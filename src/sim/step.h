@@ -139,7 +139,9 @@ void run_swept_bound(Exec& ex, const StepView& s) {
 }
 
 // Bound: decide and run the refresh, clamp every vertex into its ball, go on where a pushed vertex
-// was held back (run_bound_passes), and count what the bound did to the pushes.
+// was held back (run_bound_passes), and count what the bound did to the pushes. With an integrator
+// of long steps where a body moves, the swept bound (run_swept_bound) takes the clamp's and the
+// passes' place.
 template <class Integrator, class Exec>
 void run_bound(Exec& ex, const StepView& step) {
   StepView s = step;

@@ -232,9 +232,9 @@ RC_HD void stage_swept_check(const StepView& s, uint32_t t, uint32_t round) {
 }
 
 // One thread, before a round's check: no pair has failed yet. A round after one that found a
-// failing pair counts as a further pass of the bound.
+// failing pair is counted (swept_bound_rounds).
 RC_HD void stage_swept_round_begin(const StepView& s, uint32_t round) {
-  if (round > 0u && s.counters->swept_failing) ++s.counters->bound_passes;
+  if (round > 0u && s.counters->swept_failing) ++s.counters->swept_rounds;
   s.counters->swept_failing = 0u;
 }
 
