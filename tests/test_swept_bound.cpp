@@ -82,7 +82,24 @@ double least_over_floor(const ClothModel& m, const std::vector<Vec3>& x, const s
     return d0 < kSweptTiny ? d0 : std::min(kSweptFloorOfGap * d0, double(kSweptFloorShare) * double(thickness));
   };
   double least = INFINITY;
+  // A pair whose boxes over the step (x and x_next of its vertices) stay farther apart than the
+  // largest floor cannot come within it: skipped.
+  const double reach = double(kSweptFloorShare) * double(thickness);
+  auto apart = [&](const uint32_t* w, int na) {
+    for (int axis = 0; axis < 3; ++axis) {
+      double alo = INFINITY, ahi = -INFINITY, blo = INFINITY, bhi = -INFINITY;
+      for (int j = 0; j < 4; ++j)
+        for (const Vec3* p : {&x[w[j]], &x_next[w[j]]}) {
+          const double c = axis == 0 ? p->x : (axis == 1 ? p->y : p->z);
+          if (j < na) alo = std::min(alo, c), ahi = std::max(ahi, c);
+          else blo = std::min(blo, c), bhi = std::max(bhi, c);
+        }
+      if (alo > bhi + reach || blo > ahi + reach) return true;
+    }
+    return false;
+  };
   auto pair = [&](const uint32_t* w, int na) {
+    if (apart(w, na)) return;
     double d0 = 0.0, lo = INFINITY;
     for (int k = 0; k <= 64; ++k) {
       const double u = k / 64.0;
