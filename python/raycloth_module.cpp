@@ -448,7 +448,8 @@ vertices_inside, vertices_pinched, min_pinch_gap, pairs_tested, vertices_tested,
 entry in the collision buffer in the last step), pushed_by_obstacles, clamped_by_bound,
 obstacle_conflicts, push_shortened_by_bound, bound_refreshes, bound_partial_refreshes,
 cloth_contact_pairs, moved_by_contact_solve, contact_solve_rounds, bound_passes,
-pushed_out_of_overlaps, swept_bound_rounds, swept_bound_stops (sums over all steps), unconverged_steps and max_residual (the implicit integrator), solves (the steps the
+pushed_out_of_overlaps, swept_bound_rounds, swept_bound_stops, entered_obstacles (sums over all steps), unconverged_steps,
+steps_taken_again and max_residual (the implicit integrator), solves (the steps the
 backend took: one a step, or one a substep) and substeps (the most substeps a step was cut into), max_obstacle_move (the largest
 move of an obstacle vertex in one step, metres), and stage_seconds (wall-clock seconds per stage).)")
       .def("__repr__", [](PySimulator& p) {

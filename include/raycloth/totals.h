@@ -20,6 +20,7 @@ namespace raycloth {
   X(overlap_exits, "pushed_out_of_overlaps", "contact") /* pushes that landed inside another part of a body and went out of every part instead */ \
   X(swept_rounds, "swept_bound_rounds", "contact") /* rounds of the swept bound after one that found a failing pair */ \
   X(swept_stops, "swept_bound_stops", "contact") /* steps whose swept bound did not settle: every vertex stayed where it was */ \
+  X(entered, "entered_obstacles", "contact") /* vertices that ended a step inside an obstacle they had not been inside of (implicit steps where a body moves) */ \
   X(unconverged, "unconverged_steps", "integrator") /* 1 when the implicit solve's last sweep exceeded the tolerance */
 
 // The sums over a batch of steps, or over a run (Simulator::totals).
@@ -34,6 +35,7 @@ struct RunTotals {
   double max_obstacle_move = 0;    // the largest move of an obstacle vertex in one step (metres)
   uint64_t solves = 0;             // steps the backend took: one a scene step, or one a substep
   uint64_t max_substeps = 0;       // the most substeps one scene step was cut into (Simulator)
+  uint64_t retried = 0;            // tries of a scene step that were undone and taken again in more substeps (Simulator)
 
   void add(const RunTotals& o) {
 #define RAYCLOTH_TOTAL_ADD(name, json, section) name += o.name;
@@ -45,6 +47,7 @@ struct RunTotals {
     max_obstacle_move = max_obstacle_move > o.max_obstacle_move ? max_obstacle_move : o.max_obstacle_move;
     solves += o.solves;
     max_substeps = max_substeps > o.max_substeps ? max_substeps : o.max_substeps;
+    retried += o.retried;
   }
 };
 
@@ -56,6 +59,7 @@ void for_each_total(const RunTotals& t, F&& f) {
 #undef RAYCLOTH_TOTAL_VISIT
   f("bound_refreshes", "contact", t.refreshes);
   f("bound_partial_refreshes", "contact", t.partial_refreshes);
+  f("steps_taken_again", "integrator", t.retried);
 }
 
 }  // namespace raycloth

@@ -178,7 +178,7 @@ def test_step_releases_the_gil(small_scene):
 def test_implicit_steps_are_cut_only_while_a_moving_body_is_within_reach(small_scene):
     # The sphere under the cloth slides at 0.5 m/s from t = 0.1 s, 8.3 mm a step of 1/60 s: before
     # it moves and while it is still far below the falling cloth, the steps are not cut; once it
-    # moves under the cloth they are, into 17 substeps (0.5 mm each).
+    # moves under the cloth they are, into 9 substeps (1 mm each; one layer, so none is taken again).
     small_scene["time"] = {"dt": 1 / 60, "integrator": "implicit", "iterations": 20, "duration": 0.5, "fps": 30}
     small_scene["panels"][0]["position"] = [0, 0.6, 0]
     sim = raycloth.Simulator(small_scene, threads=1)
@@ -186,6 +186,6 @@ def test_implicit_steps_are_cut_only_while_a_moving_body_is_within_reach(small_s
     assert sim.stats["solves"] == 6 and sim.stats["substeps"] == 1
     sim.step(18)  # t = 0.4 s: the cloth lies on the sliding sphere
     s = sim.stats
-    assert s["substeps"] == 17
-    assert 6 + 17 <= s["solves"] <= 6 + 18 * 17
+    assert s["substeps"] == 9 and s["steps_taken_again"] == 0 and s["entered_obstacles"] == 0
+    assert 6 + 9 <= s["solves"] <= 6 + 18 * 9
     assert sim.check()["clean"]

@@ -111,7 +111,10 @@ nlohmann::json run_json(const RunReport& r, Simulator& sim) {
                        // Where a body moves, each step is cut into substeps, as many as the body
                        // near the cloth asks for in that step (Simulator::substeps): the most in one
                        // step, and the solves (substeps) of the run.
-                       {"substeps", sim.substeps()}, {"solves", sim.solves()}};
+                       {"substeps", sim.substeps()}, {"solves", sim.solves()},
+                       // Tries of a step undone and taken again in more substeps: they had left
+                       // cloth inside a body (Simulator::advance).
+                       {"steps_taken_again", sim.totals().retried}};
   else
     j["integrator"] = {{"name", "explicit"}, {"method", "explicit Euler, eq. (3)"}};
   if (r.check.enabled) {

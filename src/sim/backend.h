@@ -61,6 +61,13 @@ class Backend {
   virtual bool can_checkpoint() const { return false; }
   virtual void save(ByteWriter& out) { (void)out; }
   virtual void restore(ByteReader& in, uint64_t steps) { (void)in, (void)steps; }
+  // Steps taken again (Simulator: a step of the implicit integrator whose substeps left cloth inside
+  // a moving body is taken again in more of them): keep() remembers the whole state at the current
+  // step, back() returns to it, as often as asked, until the next keep(). The steps between are
+  // forgotten (the clock is set again before the next). Backends without them say so.
+  virtual bool can_go_back() const { return false; }
+  virtual void keep() {}
+  virtual void back() {}
   // Edits between steps (Simulator::set_state, pin, move_obstacle): whether the backend takes them,
   // and the state at the current step replaced (the displacement bound starting over from it). The
   // model's inv_mass and the obstacles' poses are read from the host every step by a backend that

@@ -84,6 +84,24 @@ class CpuBackend final : public Backend {
 
   bool can_edit() const override { return true; }
 
+  // The state and the obstacles' pose; the trees and Embree's scene are updated from them in the
+  // next begin() (where a body moves, the cloth's tree every step), and the integrator's scratch is
+  // rewritten by a run of substeps from its first.
+  bool can_go_back() const override { return true; }
+  void keep() override {
+    if (!kept_) kept_ = std::make_unique<SimState<HostArray>>(model_);
+    st_.for_each_array(*kept_, [](const auto& from, auto& to) { to = from; });
+    kept_->cur = st_.cur;
+    kept_obstacle_x_ = obstacle_x_;
+    kept_obstacle_v_ = obstacle_v_;
+  }
+  void back() override {
+    kept_->for_each_array(st_, [](const auto& from, auto& to) { to = from; });
+    st_.cur = kept_->cur;
+    obstacle_x_ = kept_obstacle_x_;
+    obstacle_v_ = kept_obstacle_v_;
+  }
+
   // As the constructor starts: the bound's balls at x with no room, so the first step refreshes it.
   void replace_state(const std::vector<Vec3>& x, const std::vector<Vec3>& v) override {
     st_.x[st_.cur] = x;
@@ -281,6 +299,8 @@ class CpuBackend final : public Backend {
   AnyIntegrator<HostArray> integrator_;
   std::vector<Vec3> obstacle_x_, obstacle_v_, obstacle_prev_;
   HostBvh obstacle_bvh_, cloth_bvh_;
+  std::unique_ptr<SimState<HostArray>> kept_;  // keep()
+  std::vector<Vec3> kept_obstacle_x_, kept_obstacle_v_;
   StageTimes* times_ = nullptr;
 
   const std::vector<Vec3>& x() const { return st_.x[st_.cur]; }

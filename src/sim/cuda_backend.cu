@@ -154,6 +154,27 @@ class CudaBackend final : public Backend {
     return true;
   }
 
+  // As the CPU backend's: the state and the obstacles' pose, copied on the device (the trees are refit
+  // from them in the next begin()).
+  bool can_go_back() const override { return true; }
+  void keep() override {
+    if (!kept_) {
+      kept_ = std::make_unique<SimState<DeviceBuffer>>(model_);
+      kept_obstacle_x_.resize(obstacle_x_.size());
+      kept_obstacle_v_.resize(obstacle_v_.size());
+    }
+    st_->for_each_array(*kept_, [this](const auto& from, auto& to) { copy_on_device(from, to); });
+    kept_->cur = st_->cur;
+    copy_on_device(obstacle_x_, kept_obstacle_x_);
+    copy_on_device(obstacle_v_, kept_obstacle_v_);
+  }
+  void back() override {
+    kept_->for_each_array(*st_, [this](const auto& from, auto& to) { copy_on_device(from, to); });
+    st_->cur = kept_->cur;
+    copy_on_device(kept_obstacle_x_, obstacle_x_);
+    copy_on_device(kept_obstacle_v_, obstacle_v_);
+  }
+
   // ---- The executor of sim/step.h ----
 
   StepView begin(uint64_t step) {
@@ -371,6 +392,12 @@ class CudaBackend final : public Backend {
     CUDA_CHECK(cudaStreamSynchronize(stream_));
   }
 
+  template <class T>
+  void copy_on_device(const DeviceBuffer<T>& from, DeviceBuffer<T>& to) {
+    if (from.bytes() > 0)
+      CUDA_CHECK(cudaMemcpyAsync(to.data(), from.data(), from.bytes(), cudaMemcpyDeviceToDevice, stream_));
+  }
+
   void upload_moving_vertices() {
     std::vector<uint32_t> world_index, pose_index;
     std::vector<Vec3> local;
@@ -446,6 +473,8 @@ class CudaBackend final : public Backend {
   const uint32_t* cloth_indices_ = nullptr;           // model_view_.triangles
   const uint32_t* tri_alias_ = nullptr;
   std::unique_ptr<SimState<DeviceBuffer>> st_;
+  std::unique_ptr<SimState<DeviceBuffer>> kept_;  // keep()
+  DeviceBuffer<Vec3> kept_obstacle_x_, kept_obstacle_v_;
   AnyIntegrator<DeviceBuffer> integrator_;
   StageTimes* times_ = nullptr;
   std::vector<cudaEvent_t> events_;  // stage boundaries of the step in flight (mark, book_times)

@@ -19,7 +19,8 @@ namespace raycloth {
 
 double natural_period(const SceneDef& scene) { return build_cloth_model(scene).natural_period(); }
 
-Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(scene) {
+Simulator::Simulator(const SceneDef& scene, const SimOptions& options)
+    : scene_(scene), take_steps_again_(options.take_steps_again) {
   validate_scene(scene_);
   model_ = std::make_unique<ClothModel>(build_cloth_model(scene_));
   obstacles_ = std::make_unique<ObstacleSet>(build_obstacles(scene_));
@@ -66,7 +67,8 @@ Simulator::Simulator(const SceneDef& scene, const SimOptions& options) : scene_(
   // 2 m/s through three hanging layers 8 mm apart: clean at 0.6 mm per step, 1 to 2 vertices left
   // inside at 0.8 mm and more, with either integrator), so each step is done in as many substeps as
   // keep every body point within reach of the cloth in that step within kImplicitMaxBodyMove per
-  // substep (substeps_now). The backend steps the substeps; this class counts whole steps.
+  // substep (substeps_now), 1 mm at first and less where a step is taken again (advance). The backend
+  // steps the substeps; this class counts whole steps.
   if (!expl && obstacles_->any_moving)
     reach_ = std::make_unique<BodyReach>(*model_, *obstacles_, scene_.collision.thickness + scene_.collision.tolerance);
   const BackendInput in{&scene_, model_.get(), obstacles_.get(), {}};
@@ -262,21 +264,52 @@ void Simulator::advance(int n) {
   }
   // Step by step, each cut into its own substeps, the sweeps shared out among them: a substep's
   // solve starts nearer its answer (k dt^2 / m is substeps^2 times smaller), at least
-  // kMinSubstepSweeps each.
+  // kMinSubstepSweeps each. A step is taken again from the same state (Backend::keep, back) with
+  // half as much body motion a substep when its substeps let a vertex into a body it was not inside
+  // of (entered_obstacles: stage_entered) or blew up, or when at the first try's length the bound
+  // shortened a body's push (kImplicitPushLevel); down to kImplicitRetries halvings, and only where
+  // the finer length makes more substeps. The steps after a retry start at its length, and go back
+  // up one level after kImplicitRetryHold steps taken at once.
+  const bool can_retry = take_steps_again_ && backend_->can_go_back();
   for (int k = 0; k < n; ++k) {
-    const int sub = substeps_now();
-    const int sweeps = std::max(std::min(kMinSubstepSweeps, scene_.time.iterations), (scene_.time.iterations + sub - 1) / sub);
-    backend_->set_clock(StepClock{0, time(), {scene_.time.dt / double(sub), sweeps, sub}});
-    StepResult r = backend_->step(sub, 0, times_);
-    r.totals.max_substeps = uint64_t(sub);
-    if (r.bad_vertex >= 0) r.bad_step = steps_;
-    take(r, 1);
+    if (can_retry) backend_->keep();
+    int level = retry_level_;
+    int sub = substeps_now(kImplicitMaxBodyMove / double(1 << level));
+    for (;;) {
+      const int sweeps =
+          std::max(std::min(kMinSubstepSweeps, scene_.time.iterations), (scene_.time.iterations + sub - 1) / sub);
+      backend_->set_clock(StepClock{0, time(), {scene_.time.dt / double(sub), sweeps, sub}});
+      StepResult r = backend_->step(sub, 0, times_);
+      // Taken again: a vertex entered a body or the step blew up; or, at the first try's length, the
+      // bound shortened a body's push (cloth caught between the body and other cloth: kImplicitPushLevel).
+      const bool entered = r.totals.entered > 0 || r.bad_vertex >= 0;
+      const bool shortened = level < kImplicitPushLevel && r.totals.push_clamped > 0;
+      if ((entered || shortened) && can_retry && level < kImplicitRetries) {
+        const int finer = substeps_now(kImplicitMaxBodyMove / double(1 << (level + 1)));
+        if (finer > sub) {  // else the body moves too little for more substeps to change the step
+          backend_->back();
+          ++totals_.retried;
+          retry_level_ = ++level;
+          retry_clean_ = 0;
+          sub = finer;
+          continue;
+        }
+      }
+      r.totals.max_substeps = uint64_t(sub);
+      if (r.bad_vertex >= 0) r.bad_step = steps_;
+      take(r, 1);
+      break;
+    }
+    if (retry_level_ > 0 && ++retry_clean_ >= kImplicitRetryHold) {
+      --retry_level_;
+      retry_clean_ = 0;
+    }
   }
 }
 
 // The substeps of the next step: as many as keep the longest way of a body point within reach of the
-// cloth over it (BodyReach) within kImplicitMaxBodyMove each.
-int Simulator::substeps_now() {
+// cloth over it (BodyReach) within `most` metres each.
+int Simulator::substeps_now(double most) {
   const double g = std::sqrt(double(scene_.gravity[0]) * scene_.gravity[0] + double(scene_.gravity[1]) * scene_.gravity[1] +
                              double(scene_.gravity[2]) * scene_.gravity[2]);
   // The cloth from the backend only where a body moves farther than one substep allows.
@@ -284,8 +317,8 @@ int Simulator::substeps_now() {
     x = &positions();
     v = &velocities();
   };
-  const double way = reach_->way_near_cloth(cloth, time(), scene_.time.dt, g, kImplicitMaxBodyMove);
-  return int(std::max(1.0, std::ceil(way / kImplicitMaxBodyMove - 1e-9)));
+  const double way = reach_->way_near_cloth(cloth, time(), scene_.time.dt, g, most);
+  return int(std::max(1.0, std::ceil(way / most - 1e-9)));
 }
 
 // What n steps the backend took left: the totals, and on a blow-up (r.bad_step, a scene step) the
@@ -346,6 +379,8 @@ void Simulator::save_state(ByteWriter& out) {
   // its mean edge length, which welding the pattern's start positions in one go would not give.
   out.u64(stitches_welded_);
   out.u64(welds_put_off_);
+  out.u64(uint64_t(retry_level_));
+  out.u64(uint64_t(retry_clean_));
   out.vec(model_->alias);
   out.vec(model_->initial_positions);
   out.vec(model_->mass);
@@ -361,6 +396,8 @@ void Simulator::restore_state(ByteReader& in) {
   in.pod(times_);
   const uint64_t welded = in.u64();
   welds_put_off_ = in.u64();
+  retry_level_ = int(std::min<uint64_t>(in.u64(), uint64_t(kImplicitRetries)));
+  retry_clean_ = int(std::min<uint64_t>(in.u64(), uint64_t(kImplicitRetryHold)));
   const size_t n = model_->num_vertices();
   std::vector<uint32_t> alias;
   std::vector<Vec3> start;

@@ -79,6 +79,17 @@ struct SimState {
 #undef RAYCLOTH_STATE_KEPT
   }
 
+  // f(array, other's array) for every array of this state and of `other` (built for the same model),
+  // x and v's buffers included: what a step may change. A retried step (Backend::keep) copies them
+  // all, so that the step taken again starts from exactly what the first try started from.
+  template <class F>
+  void for_each_array(SimState& other, F&& f) {
+    for (int b = 0; b < 2; ++b) f(x[b], other.x[b]), f(v[b], other.v[b]);
+#define RAYCLOTH_STATE_PAIR(type, name, count, start, kept) f(name, other.name);
+    RAYCLOTH_STATE_ARRAYS(RAYCLOTH_STATE_PAIR)
+#undef RAYCLOTH_STATE_PAIR
+  }
+
   void flip() { cur ^= 1; }
 };
 

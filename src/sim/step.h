@@ -196,6 +196,10 @@ void run_step(Exec& ex, Integrator& integrator, uint64_t step) {
   run_respond(ex, integrator, s);
   run_contact_solve(ex, s);
   run_bound<Integrator>(ex, s);
+  // Where the steps are long and a body moves, vertices that entered a body (a step with one is taken
+  // again in more substeps: Simulator::advance).
+  if (Integrator::kLongSteps && s.bodies_move)
+    ex.sum(Stage::Respond, s.model.num_vertices, [s] RC_LAMBDA(uint32_t i) { return stage_entered(s, i); }, &s.counters->entered);
   run_finish(ex, s);
   ex.end();
 }

@@ -127,6 +127,7 @@ inline void add_step(StepResult& r, const StepCounters& c) {
   X(BoundPlanes, planes, kPerVertex, BoundPlanes(), true)                                                     \
   X(uint32_t, bound_age, kOne, 0u, true)                                                                      \
   X(uint32_t, flags, kPerVertex, 0u, true)             /* kFlag* of this step */                               \
+  X(uint32_t, inside, kPerVertex, 0u, true)            /* 1: the vertex ended its last step inside an obstacle */ \
   /* The implicit integrator's (sim/integrate/vbd.h): each vertex's velocity at the last step's start. */  \
   X(Vec3, v_before, kPerVertex, Vec3{}, true)                                                                 \
   /* The bound's further passes: the step's goal and where the last pass left each vertex. */                 \
