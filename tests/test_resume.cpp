@@ -18,6 +18,8 @@
 #include <string>
 #include <thread>
 
+#include "io/checkpoint.h"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -246,12 +248,13 @@ TEST(ResumeRefused, FromAnotherVersionOrDamaged) {
   };
   const std::string at = "raycloth: error: " + cp.string() + ": ";
   std::string other = good;
-  const size_t v = other.find("0.5.9");  // raycloth's version, in the header
+  const std::string version = raycloth::raycloth_version();  // in the header
+  const size_t v = other.find(version);
   ASSERT_NE(v, std::string::npos);
-  other.replace(v, 5, "0.0.9");
+  other.replace(v, version.size(), "0.0.9");
   Result r = resume_with(other);
   EXPECT_EQ(r.code, 2);
-  EXPECT_EQ(r.err, at + "was written by raycloth 0.0.9, this is raycloth 0.5.9; start the run again without --resume\n");
+  EXPECT_EQ(r.err, at + "was written by raycloth 0.0.9, this is raycloth " + version + "; start the run again without --resume\n");
   std::string damaged = good;
   damaged[damaged.size() / 2] ^= 0x40;
   r = resume_with(damaged);

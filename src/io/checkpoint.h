@@ -20,7 +20,7 @@
 
 namespace raycloth {
 
-inline constexpr uint32_t kCheckpointFormat = 7;  // 2: FrameRecord::seam_gap; 3: the state as SimState::for_each_kept lists it, RunTotals; 4: welds put off; 5: RunTotals::max_obstacle_move, the bound's planes; 6: the welded model's start positions and masses; 7: StepCounters::pass_moved
+inline constexpr uint32_t kCheckpointFormat = 8;  // 2: FrameRecord::seam_gap; 3: the state as SimState::for_each_kept lists it, RunTotals; 4: welds put off; 5: RunTotals::max_obstacle_move, the bound's planes; 6: the welded model's start positions and masses; 7: StepCounters::pass_moved; 8: RunTotals::entered and retried, the state's inside, the steps-taken-again level
 inline constexpr const char* kCheckpointName = "checkpoint.bin";
 
 // raycloth's version (CMake's project version).
