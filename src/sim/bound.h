@@ -575,15 +575,17 @@ RC_HD uint32_t stage_conflict(const StepView& s, uint32_t i) {
 // Whether vertex i ends the step inside an obstacle (behind the face nearest to it at t + dt) having
 // not been inside one at its start (inside[i], what this stage found in the last step, kept for the
 // next). Every vertex outside at t that is inside at t + dt lies within its own move and the
-// obstacles' (obstacle_reach) of the surface, so the query reaches it. Counted as entered_obstacles:
-// where the implicit integrator's step is cut into substeps, a step with one is taken again in more
-// (Simulator::advance).
+// obstacles' (obstacle_reach) of the surface, so the query reaches it; where the vertex's body
+// clearance (stage_obstacles) shows no body within that reach, the query would find none and is
+// skipped. Counted as entered_obstacles: where the implicit integrator's step is cut into substeps,
+// a step with one is taken again in more (Simulator::advance).
 RC_HD uint32_t stage_entered(const StepView& s, uint32_t i) {
   const Vec3 xn = s.x_next[i];
-  const uint32_t in = is_representative(s.model, i) && is_finite(xn) &&
-                              inside_obstacle(s, xn, s.coll.thickness + length(xn - s.x[i]) + obstacle_reach(s))
-                          ? 1u
-                          : 0u;
+  uint32_t in = 0u;
+  if (is_representative(s.model, i) && is_finite(xn)) {
+    const float reach = s.coll.thickness + length(xn - s.x[i]) + obstacle_reach(s);
+    in = !body_clear_of(s, i, xn, reach) && inside_obstacle(s, xn, reach) ? 1u : 0u;
+  }
   const uint32_t was = s.inside[i];
   s.inside[i] = in;
   return in & (was ^ 1u);
