@@ -21,7 +21,7 @@ bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
 
 // The sliding sphere under a sheet (scenes/moving_sphere.json), moving from the start, with the
 // implicit integrator at 1/240 s: its state after 6 steps kept, 3 steps on, back, the same 3 again.
-TEST(GoBack, StepsTakenAgainFromTheKeptStateGiveTheSameStatesBitForBit) {
+void expect_steps_again_bit_for_bit(const std::string& device) {
   SceneDef s = load_scene_file(std::string(RAYCLOTH_SOURCE_DIR) + "/scenes/moving_sphere.json");
   s.time.integrator = Integrator::Implicit;
   s.time.dt = 1.0 / 240.0;
@@ -30,7 +30,8 @@ TEST(GoBack, StepsTakenAgainFromTheKeptStateGiveTheSameStatesBitForBit) {
   s.panels[0].transform.position = {0, 0.4025f, 0};  // 0.5 mm beyond the thickness over its top
   const ClothModel model = build_cloth_model(s);
   const ObstacleSet obstacles = build_obstacles(s);
-  auto backend = make_cpu_backend(BackendInput{&s, &model, &obstacles, {}});
+  const BackendInput in{&s, &model, &obstacles, {}};
+  auto backend = device == "cuda" ? make_cuda_backend(in) : make_cpu_backend(in);
   ASSERT_TRUE(backend->can_go_back());
   StageTimes times;
   std::vector<Vec3> x0, v0, x1, v1, x, v;
@@ -51,6 +52,15 @@ TEST(GoBack, StepsTakenAgainFromTheKeptStateGiveTheSameStatesBitForBit) {
     EXPECT_EQ(r.totals.pushed, first.totals.pushed);
     EXPECT_EQ(r.totals.clamped, first.totals.clamped);
   }
+}
+
+TEST(GoBack, StepsTakenAgainFromTheKeptStateGiveTheSameStatesBitForBit) { expect_steps_again_bit_for_bit("cpu"); }
+
+// The same on the GPU (device-to-device copies of the state and the obstacles' pose).
+TEST(GoBack, CudaStepsTakenAgainFromTheKeptStateGiveTheSameStatesBitForBit) {
+  std::string why;
+  if (!cuda_usable(&why)) GTEST_SKIP() << "CUDA backend cannot run: " << why;
+  expect_steps_again_bit_for_bit("cuda");
 }
 
 }  // namespace
