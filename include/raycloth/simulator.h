@@ -157,10 +157,11 @@ class Simulator {
 inline constexpr double kWeldCheckTime = 0.002;
 
 // The most a body point may move in one (sub)step of the implicit integrator, metres, at first. A
-// step that leaves a vertex inside a body it was outside of (entered_obstacles) or blows up is taken again with half
-// as much, up to kImplicitRetries times (to 0.125 mm); the steps that follow start where it ended,
-// and go back up a level after kImplicitRetryHold clean steps (Simulator::advance). Up to 0.5.9 every
-// step took 0.5 mm: clean on every scene measured, but twice the substeps where 1 mm is clean.
+// step that leaves a vertex inside a body it was outside of (entered_obstacles) or blows up is taken
+// again with half as much, up to kImplicitRetries times (to 0.125 mm); the steps that follow start
+// where it ended, and go back up a level after kImplicitRetryHold clean steps (Simulator::advance).
+// Up to 0.5.9 every step took 0.5 mm: clean on every scene measured, but twice the substeps where
+// 1 mm is clean.
 inline constexpr double kImplicitMaxBodyMove = 0.001;
 inline constexpr int kImplicitRetries = 3;
 // A step at the first try's length whose bound shortened a body's push out of it (push_clamped:
