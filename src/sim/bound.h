@@ -569,7 +569,7 @@ RC_HD bool inside_obstacle(const StepView& s, Vec3 p, float reach) {
 RC_HD uint32_t stage_conflict(const StepView& s, uint32_t i) {
   if (!stage_push_clamped(s, i)) return 0u;
   const Vec3 xn = s.x_next[i];
-  return inside_obstacle(s, xn, s.coll.thickness + length(xn - s.x[i]) + obstacle_reach(s)) ? 1u : 0u;
+  return inside_obstacle(s, xn, obstacle_query_reach(s, i, xn)) ? 1u : 0u;
 }
 
 // Whether vertex i ends the step inside an obstacle (behind the face nearest to it at t + dt) having
@@ -583,7 +583,7 @@ RC_HD uint32_t stage_entered(const StepView& s, uint32_t i) {
   const Vec3 xn = s.x_next[i];
   uint32_t in = 0u;
   if (is_representative(s.model, i) && is_finite(xn)) {
-    const float reach = s.coll.thickness + length(xn - s.x[i]) + obstacle_reach(s);
+    const float reach = obstacle_query_reach(s, i, xn);
     in = !body_clear_of(s, i, xn, reach) && inside_obstacle(s, xn, reach) ? 1u : 0u;
   }
   const uint32_t was = s.inside[i];

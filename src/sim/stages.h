@@ -82,6 +82,13 @@ RC_HD bool body_clear_of(const StepView& s, uint32_t i, Vec3 p, float reach) {
   return still_clear(s.body_clear[i], s.body_clear_at[i], p, *s.body_moved - s.body_clear_since[i], double(reach));
 }
 
+// How far from vertex i at p (its position at t + dt) an obstacle query must reach to find any body
+// it could be within the thickness of, or inside, having been outside at t: the thickness, its own
+// move and the obstacles' (stage_obstacles, stage_conflict, stage_entered).
+RC_HD float obstacle_query_reach(const StepView& s, uint32_t i, Vec3 p) {
+  return s.coll.thickness + length(p - s.x[i]) + obstacle_reach(s);
+}
+
 // Obstacles at t + dt: a vertex inside, or nearer than the thickness, goes to the thickness outside
 // the nearest surface point and loses its velocity into the surface relative to the surface's own
 // velocity there (friction on the rest).
@@ -96,7 +103,7 @@ RC_HD void stage_obstacles(const StepView& s, uint32_t i) {
   const float offset = (s.flags[i] & kFlagSqueezed) ? kSqueezeOffset * s.coll.thickness : s.coll.thickness;
   if (s.model.inv_mass[i] != 0.0f && s.obstacle_bvh.num_prims > 0 && is_finite(xn)) {
     // A vertex outside at t can be at most its own move plus the obstacle's move inside at t + dt.
-    const float reach = s.coll.thickness + length(xn - s.x[i]) + obstacle_reach(s);
+    const float reach = obstacle_query_reach(s, i, xn);
     if (body_clear_of(s, i, xn, reach)) {
       s.clearance[i] = reach - s.coll.thickness;
       return;
